@@ -1,0 +1,99 @@
+"""The small kinematics interface through which core/ talks to a robot.
+
+``robots.model.Robot`` satisfies it; tests may pass a toy model. Conventions:
+
+- ``T_base_tool``: 4x4 homogeneous transform of the tool (tip) frame in the base frame, meters.
+- Jacobian: ``(6, dof)`` geometric Jacobian in the base frame, linear rows first (the tip origin's
+  linear velocity in [m/s], then the angular velocity in [rad/s], both expressed in the base frame).
+- ``task_space``: ``"pose"`` (6+ DOF arms: position and orientation count) or ``"position_xy"``
+  (planar arms: only x and y of the tip position count; rows 0 and 1 of the Jacobian).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple, Protocol
+
+import numpy as np
+
+
+class IKResult(NamedTuple):
+    """Outcome of one IK solve.
+
+    Attributes:
+        positions: Joint positions ``(dof,)`` (the best found, even when not converged).
+        success: Residual within tolerance and joint limits respected.
+        position_error: Tip position residual in [m] (task components only).
+        orientation_error: Orientation residual in [rad] (0 for ``position_xy``).
+        iterations: Solver iterations used.
+        within_limits: Whether ``positions`` respects the joint position limits.
+    """
+
+    positions: np.ndarray
+    success: bool
+    position_error: float
+    orientation_error: float
+    iterations: int
+    within_limits: bool
+
+
+class Kinematics(Protocol):
+    """What a planner needs to know of a robot."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def joint_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def dof(self) -> int: ...
+
+    @property
+    def task_space(self) -> str: ...
+
+    @property
+    def position_limits(self) -> np.ndarray:
+        """``(dof, 2)`` lower and upper joint position limits [rad or m]."""
+        ...
+
+    @property
+    def velocity_limits(self) -> np.ndarray:
+        """``(dof,)`` joint speed limits [rad/s or m/s], > 0."""
+        ...
+
+    @property
+    def acceleration_limits(self) -> np.ndarray:
+        """``(dof,)`` joint acceleration limits [rad/s^2 or m/s^2], > 0."""
+        ...
+
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """``T_base_tool`` (4, 4) at joint positions ``q`` (dof,)."""
+        ...
+
+    def fk_many(self, qs: np.ndarray) -> np.ndarray:
+        """``T_base_tool`` for each row of ``qs`` (N, dof): shape (N, 4, 4)."""
+        ...
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Geometric Jacobian (6, dof) in the base frame, linear rows first."""
+        ...
+
+    def ik(
+        self,
+        T_base_tool: np.ndarray,
+        seed: np.ndarray,
+        *,
+        max_iterations: int = 100,
+        position_tolerance: float = 1e-6,
+        orientation_tolerance: float = 1e-6,
+    ) -> IKResult:
+        """Joint positions whose tool pose is ``T_base_tool``, starting from (and near) ``seed``."""
+        ...
+
+
+TASK_SPACES = ("pose", "position_xy")
+
+
+def task_rows(task_space: str) -> np.ndarray:
+    """Indices of the Jacobian rows that the task constrains: all six, or x and y."""
+    return np.arange(6) if task_space == "pose" else np.array([0, 1])

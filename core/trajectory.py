@@ -1,0 +1,144 @@
+"""The Trajectory value type and the sampling of time.
+
+A trajectory is the answer of every planner: sample times ``(N,)`` in [s], strictly increasing from
+0.0 to the duration, and positions, velocities, accelerations ``(N, dof)`` in joint units (rad or m,
+per second, per second squared).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from core.exceptions import InputError, TooLarge
+
+MAX_POINTS = 100_000
+"""Most points one trajectory (one response) may hold."""
+
+DEFAULT_SAMPLE_PERIOD = 0.01
+"""Sample period in [s] used when a request gives neither ``sample_period`` nor ``samples``."""
+
+
+class Profile(Protocol):
+    """Anything built once and sampled many times: ``profile(t, order)`` -> ``(len(t), dof)``."""
+
+    duration: float
+
+    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A timed joint trajectory.
+
+    Attributes:
+        times: Sample times in [s], shape ``(N,)``, strictly increasing, ``times[0] == 0``.
+        positions: Joint positions, shape ``(N, dof)``.
+        velocities: Joint velocities, shape ``(N, dof)``.
+        accelerations: Joint accelerations, shape ``(N, dof)``.
+        joint_names: One name per joint.
+    """
+
+    times: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    accelerations: np.ndarray
+    joint_names: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        n, dof = self.positions.shape
+        if self.times.shape != (n,):
+            raise ValueError(f"times has shape {self.times.shape}, expected ({n},)")
+        for name in ("velocities", "accelerations"):
+            if getattr(self, name).shape != (n, dof):
+                raise ValueError(f"{name} has shape {getattr(self, name).shape}, expected {(n, dof)}")
+        if not self.joint_names:
+            object.__setattr__(self, "joint_names", default_joint_names(dof))
+        elif len(self.joint_names) != dof:
+            raise ValueError(f"{len(self.joint_names)} joint names for {dof} joints")
+
+    @property
+    def dof(self) -> int:
+        return int(self.positions.shape[1])
+
+    @property
+    def duration(self) -> float:
+        """Time of the last point in [s]."""
+        return float(self.times[-1])
+
+    @property
+    def peak_velocity(self) -> np.ndarray:
+        """Largest |velocity| of each joint over the samples, shape ``(dof,)``."""
+        return np.abs(self.velocities).max(axis=0)
+
+    @property
+    def peak_acceleration(self) -> np.ndarray:
+        """Largest |acceleration| of each joint over the samples, shape ``(dof,)``."""
+        return np.abs(self.accelerations).max(axis=0)
+
+    @classmethod
+    def from_profile(
+        cls, profile: Profile, times: np.ndarray, joint_names: tuple[str, ...] = ()
+    ) -> Trajectory:
+        """Sample ``profile`` (positions, velocities, accelerations) at ``times``."""
+        return cls(
+            times=times,
+            positions=profile(times, 0),
+            velocities=profile(times, 1),
+            accelerations=profile(times, 2),
+            joint_names=tuple(joint_names),
+        )
+
+
+def default_joint_names(dof: int) -> tuple[str, ...]:
+    """``("j1", ..., "jn")``: the names used when a request names no robot."""
+    return tuple(f"j{i + 1}" for i in range(dof))
+
+
+def sample_times(
+    duration: float,
+    sample_period: float | None = None,
+    samples: int | None = None,
+    max_points: int = MAX_POINTS,
+) -> np.ndarray:
+    """Sample times in [s] from 0 to ``duration`` inclusive, strictly increasing.
+
+    Args:
+        duration: Trajectory length in [s], > 0.
+        sample_period: Spacing in [s]; the last interval may be shorter so the last point is at
+            ``duration`` (an interval shorter than 1e-9 s is merged into its neighbour).
+        samples: Number of points (>= 2), evenly spaced; overrides ``sample_period``.
+        max_points: Upper bound on the count; more is ``TooLarge`` (checked before allocating).
+
+    Returns:
+        Times, shape ``(N,)``, ``N >= 2``.
+    """
+    if not np.isfinite(duration) or duration <= 0.0:
+        raise InputError("duration must be a finite number > 0 s", field=("duration",))
+    if samples is not None:
+        if samples < 2:
+            raise InputError("samples must be at least 2", field=("samples",))
+        if samples > max_points:
+            raise TooLarge(
+                f"samples={samples} exceeds the limit of {max_points} points", field=("samples",)
+            )
+        times = np.linspace(0.0, duration, int(samples))
+        times[-1] = duration
+        return times
+    period = DEFAULT_SAMPLE_PERIOD if sample_period is None else float(sample_period)
+    if not np.isfinite(period) or period <= 0.0:
+        raise InputError("sample_period must be a finite number > 0 s", field=("sample_period",))
+    intervals = int(np.ceil(duration / period - 1e-9))
+    if intervals + 1 > max_points:
+        raise TooLarge(
+            f"duration {duration:.6g} s at sample_period {period:.6g} s gives {intervals + 1} "
+            f"points, over the limit of {max_points}",
+            field=("sample_period",),
+        )
+    times = np.arange(intervals + 1, dtype=float) * period
+    times[-1] = duration
+    if intervals >= 2 and times[-1] - times[-2] < 1e-9:
+        times = np.delete(times, -2)
+    return times

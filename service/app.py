@@ -1,0 +1,29 @@
+"""create_app(): the FastAPI application with its routers, error handlers and limits."""
+
+from __future__ import annotations
+
+from fastapi import FastAPI
+
+from service import __version__, errors
+from service.body_limit import BodyLimitMiddleware
+from service.routes import health
+from service.settings import Settings
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or Settings.from_env()
+    app = FastAPI(
+        title="Trajectory Service",
+        version=__version__,
+        description=(
+            "Plans robot trajectories over HTTP: joint-space profiles, C2 splines, Cartesian straight "
+            "lines (sampled IK, Taylor's bounded deviation, its optimization form, resolved-rate "
+            "control). SI units throughout: meters, radians, seconds."
+        ),
+    )
+    app.state.settings = settings
+    errors.install(app)
+    for module in (health,):
+        app.include_router(module.router)
+    app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    return app

@@ -1,0 +1,76 @@
+"""Trajectory -> JSON bytes, the one place where numpy results become the wire format.
+
+The response is encoded directly with orjson from numpy arrays (no per-point pydantic objects), so a
+100,000-point trajectory costs one pass. ``time_format="ros"`` gives each ``time_from_start`` as a
+ROS Duration ``{"sec", "nanosec"}`` converted through integer nanoseconds.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import orjson
+from starlette.responses import Response
+
+from core.exceptions import Infeasible
+from core.trajectory import Trajectory
+
+JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
+
+
+def ros_durations(times: np.ndarray) -> list[dict[str, int]]:
+    """Times in [s] -> ROS ``builtin_interfaces/Duration`` dicts through integer nanoseconds."""
+    ns = np.rint(np.asarray(times, dtype=float) * 1e9).astype(np.int64)
+    sec, nanosec = np.divmod(ns, 1_000_000_000)
+    return [{"sec": int(s), "nanosec": int(n)} for s, n in zip(sec.tolist(), nanosec.tolist())]
+
+
+def trajectory_points(traj: Trajectory, time_format: str = "float") -> list[dict[str, Any]]:
+    """The ROS-shaped ``points`` list of a trajectory."""
+    times: list[Any] = (
+        ros_durations(traj.times) if time_format == "ros" else traj.times.tolist()
+    )
+    pos, vel, acc = traj.positions.tolist(), traj.velocities.tolist(), traj.accelerations.tolist()
+    return [
+        {"time_from_start": t, "positions": p, "velocities": v, "accelerations": a}
+        for t, p, v, a in zip(times, pos, vel, acc)
+    ]
+
+
+def base_diagnostics(traj: Trajectory, method: str, compute_time_ms: float) -> dict[str, Any]:
+    """Diagnostics every trajectory response carries."""
+    return {
+        "method": method,
+        "duration": traj.duration,
+        "compute_time_ms": compute_time_ms,
+        "peak_velocity": traj.peak_velocity,
+        "peak_acceleration": traj.peak_acceleration,
+        "warnings": [],
+    }
+
+
+def trajectory_body(
+    traj: Trajectory, diagnostics: dict[str, Any], time_format: str = "float", **extra: Any
+) -> dict[str, Any]:
+    """The response document: ``joint_names``, ``points``, ``diagnostics`` and any extra keys."""
+    body: dict[str, Any] = {
+        "joint_names": list(traj.joint_names),
+        "points": trajectory_points(traj, time_format),
+        "diagnostics": diagnostics,
+    }
+    body.update(extra)
+    return body
+
+
+def check_finite(traj: Trajectory) -> None:
+    """Refuse to emit a non-finite number (a planner bug, never a client's fault)."""
+    for name in ("times", "positions", "velocities", "accelerations"):
+        if not np.all(np.isfinite(getattr(traj, name))):
+            raise Infeasible(f"planning produced a non-finite {name} value; the plan is refused")
+
+
+def json_response(body: Any, status_code: int = 200) -> Response:
+    return Response(
+        orjson.dumps(body, option=JSON_OPTIONS), status_code=status_code, media_type="application/json"
+    )

@@ -1,0 +1,169 @@
+"""Shared schema pieces: the strict base model, bounded numbers and arrays, robots, sampling.
+
+Every model forbids unknown fields and non-finite numbers (NaN, Infinity), and every number has a
+documented physical bound, so no request can make the service emit an infinite number.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+MAX_JOINTS = 64
+MAX_POSITION = 1e4
+"""Largest |joint position| [rad or m] and |Cartesian coordinate| [m] accepted."""
+MAX_VELOCITY = 1e4
+"""Largest |joint velocity| [rad/s or m/s] accepted, in boundary conditions and limits."""
+MAX_ACCELERATION = 1e6
+"""Largest |joint acceleration| [rad/s^2 or m/s^2] accepted."""
+MAX_DURATION = 1e5
+"""Longest trajectory duration [s]."""
+MAX_URDF_BYTES = 1024 * 1024
+
+
+class StrictModel(BaseModel):
+    """Base of every request model: unknown fields and NaN/Infinity are 422."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+Position = Annotated[float, Field(ge=-MAX_POSITION, le=MAX_POSITION)]
+Velocity = Annotated[float, Field(ge=-MAX_VELOCITY, le=MAX_VELOCITY)]
+Acceleration = Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]
+PositiveVelocity = Annotated[float, Field(gt=0, le=MAX_VELOCITY)]
+PositiveAcceleration = Annotated[float, Field(gt=0, le=MAX_ACCELERATION)]
+
+JointPositions = Annotated[
+    list[Position],
+    Field(min_length=1, max_length=MAX_JOINTS, description="Joint positions [rad or m], one per joint."),
+]
+JointVelocities = Annotated[
+    list[Velocity],
+    Field(min_length=1, max_length=MAX_JOINTS, description="Joint velocities [rad/s or m/s]."),
+]
+JointAccelerations = Annotated[
+    list[Acceleration],
+    Field(min_length=1, max_length=MAX_JOINTS, description="Joint accelerations [rad/s^2 or m/s^2]."),
+]
+
+
+class InlineRobot(StrictModel):
+    """A robot sent as URDF text: kinematics only, meshes are never loaded."""
+
+    urdf: str = Field(
+        min_length=1,
+        max_length=MAX_URDF_BYTES,
+        description="URDF XML, at most 1 MiB and 64 joints; revolute, prismatic, continuous, fixed.",
+    )
+    tip_frame: str = Field(min_length=1, max_length=256, description="Tool frame (link) name.")
+    base_frame: str = Field(min_length=1, max_length=256, description="Base frame (link) name.")
+
+
+RobotRef = Annotated[
+    str | InlineRobot,
+    Field(
+        description='A registered robot name (for example "ur5") or an inline URDF model.',
+        union_mode="left_to_right",
+    ),
+]
+
+
+class Limits(StrictModel):
+    """Per-joint limits overriding the robot's (or required when no robot is named)."""
+
+    velocity: list[PositiveVelocity] | None = Field(
+        default=None, min_length=1, max_length=MAX_JOINTS, description="Speed limits [rad/s or m/s], > 0."
+    )
+    acceleration: list[PositiveAcceleration] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=MAX_JOINTS,
+        description="Acceleration limits [rad/s^2 or m/s^2], > 0.",
+    )
+
+
+class Sampling(StrictModel):
+    """How the returned trajectory is sampled: a period or a count, not both."""
+
+    sample_period: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_DURATION,
+        description="Spacing of the returned points [s] (default 0.01); at most 100,000 points.",
+    )
+    samples: int | None = Field(
+        default=None, ge=2, le=100_000, description="Number of returned points, evenly spaced in time."
+    )
+
+    @model_validator(mode="after")
+    def _one_of_period_or_count(self) -> Any:
+        if self.sample_period is not None and self.samples is not None:
+            raise ValueError("give sample_period or samples, not both")
+        return self
+
+
+TimeFormat = Literal["float", "ros"]
+
+
+class RosDuration(BaseModel):
+    sec: int = Field(description="Whole seconds.")
+    nanosec: int = Field(ge=0, lt=1_000_000_000, description="Nanoseconds, < 1e9.")
+
+
+class TrajectoryPoint(BaseModel):
+    time_from_start: float | RosDuration = Field(
+        description="Time [s] from the start (a ROS Duration with ?time_format=ros)."
+    )
+    positions: list[float] = Field(description="Joint positions [rad or m].")
+    velocities: list[float] = Field(description="Joint velocities [rad/s or m/s].")
+    accelerations: list[float] = Field(description="Joint accelerations [rad/s^2 or m/s^2].")
+
+
+class Diagnostics(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+    method: str = Field(description="Planning method or profile used.")
+    duration: float = Field(description="Trajectory duration [s].")
+    compute_time_ms: float = Field(description="Planning time on the server [ms].")
+    peak_velocity: list[float] = Field(description="Largest |velocity| per joint [rad/s or m/s].")
+    peak_acceleration: list[float] = Field(
+        description="Largest |acceleration| per joint [rad/s^2 or m/s^2]."
+    )
+    warnings: list[str] = Field(description="Things the client should know (slow-downs, clipping).")
+
+
+class TrajectoryResponse(BaseModel):
+    """A superset of ROS trajectory_msgs/JointTrajectory."""
+
+    model_config = ConfigDict(extra="allow")
+
+    joint_names: list[str]
+    points: list[TrajectoryPoint]
+    diagnostics: Diagnostics
+
+
+class ValidationItem(BaseModel):
+    loc: list[str | int]
+    msg: str
+
+
+class Problem(BaseModel):
+    """application/problem+json (RFC 9457)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    type: str
+    title: str
+    status: int
+    detail: str
+    code: str = Field(description="Machine-readable failure code (see API.md).")
+    s: float | None = Field(default=None, description="Path parameter in [0, 1] of a failure.")
+    errors: list[ValidationItem] | None = None
+
+
+PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
+    404: {"model": Problem, "description": "Unknown robot or frame"},
+    413: {"model": Problem, "description": "Body over 2 MiB"},
+    422: {"model": Problem, "description": "Invalid request or planning failure"},
+}
