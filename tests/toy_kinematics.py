@@ -1,0 +1,71 @@
+"""A toy planar 2R arm satisfying core.kinematics.Kinematics, independent of pinocchio.
+
+Link lengths 1.0 m and 0.8 m, joints about z; closed-form FK, Jacobian and IK. Core tests use it so
+the planning math is tested without the robots package.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.kinematics import IKResult
+
+
+class ToyPlanar2R:
+    name = "toy_planar_2r"
+    joint_names = ("shoulder", "elbow")
+    dof = 2
+    task_space = "position_xy"
+    l1, l2 = 1.0, 0.8
+
+    def __init__(self) -> None:
+        self.position_limits = np.array([[-np.pi, np.pi], [-np.pi, np.pi]])
+        self.velocity_limits = np.array([2.0, 2.0])
+        self.acceleration_limits = np.array([10.0, 10.0])
+
+    def fk_many(self, qs: np.ndarray) -> np.ndarray:
+        qs = np.atleast_2d(qs)
+        a, ab = qs[:, 0], qs[:, 0] + qs[:, 1]
+        T = np.zeros((len(qs), 4, 4))
+        T[:, 0, 0], T[:, 0, 1] = np.cos(ab), -np.sin(ab)
+        T[:, 1, 0], T[:, 1, 1] = np.sin(ab), np.cos(ab)
+        T[:, 2, 2] = T[:, 3, 3] = 1.0
+        T[:, 0, 3] = self.l1 * np.cos(a) + self.l2 * np.cos(ab)
+        T[:, 1, 3] = self.l1 * np.sin(a) + self.l2 * np.sin(ab)
+        return T
+
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        return self.fk_many(np.asarray(q)[None])[0]
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        a, ab = q[0], q[0] + q[1]
+        J = np.zeros((6, 2))
+        J[0] = [-self.l1 * np.sin(a) - self.l2 * np.sin(ab), -self.l2 * np.sin(ab)]
+        J[1] = [self.l1 * np.cos(a) + self.l2 * np.cos(ab), self.l2 * np.cos(ab)]
+        J[5] = [1.0, 1.0]
+        return J
+
+    def ik(
+        self,
+        T_base_tool,
+        seed,
+        *,
+        max_iterations=100,
+        position_tolerance=1e-6,
+        orientation_tolerance=1e-6,
+    ) -> IKResult:
+        x, y = T_base_tool[0, 3], T_base_tool[1, 3]
+        c2 = (x * x + y * y - self.l1**2 - self.l2**2) / (2 * self.l1 * self.l2)
+        best = None
+        for sign in (1.0, -1.0):
+            q2 = sign * np.arccos(np.clip(c2, -1.0, 1.0))
+            q1 = np.arctan2(y, x) - np.arctan2(self.l2 * np.sin(q2), self.l1 + self.l2 * np.cos(q2))
+            q = np.array([q1, q2])
+            q[0] = seed[0] + (q[0] - seed[0] + np.pi) % (2 * np.pi) - np.pi
+            if best is None or np.linalg.norm(q - seed) < np.linalg.norm(best - seed):
+                best = q
+        err = float(np.linalg.norm(self.fk(best)[:2, 3] - [x, y]))
+        lo, hi = self.position_limits.T
+        inside = bool(np.all(best >= lo) and np.all(best <= hi))
+        ok = err <= position_tolerance and inside
+        return IKResult(best, ok, err, 0.0, 1, inside)
