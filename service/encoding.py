@@ -23,18 +23,19 @@ def ros_durations(times: np.ndarray) -> list[dict[str, int]]:
     """Times in [s] -> ROS ``builtin_interfaces/Duration`` dicts through integer nanoseconds."""
     ns = np.rint(np.asarray(times, dtype=float) * 1e9).astype(np.int64)
     sec, nanosec = np.divmod(ns, 1_000_000_000)
-    return [{"sec": int(s), "nanosec": int(n)} for s, n in zip(sec.tolist(), nanosec.tolist())]
+    return [
+        {"sec": int(s), "nanosec": int(n)}
+        for s, n in zip(sec.tolist(), nanosec.tolist(), strict=True)
+    ]
 
 
 def trajectory_points(traj: Trajectory, time_format: str = "float") -> list[dict[str, Any]]:
     """The ROS-shaped ``points`` list of a trajectory."""
-    times: list[Any] = (
-        ros_durations(traj.times) if time_format == "ros" else traj.times.tolist()
-    )
+    times: list[Any] = ros_durations(traj.times) if time_format == "ros" else traj.times.tolist()
     pos, vel, acc = traj.positions.tolist(), traj.velocities.tolist(), traj.accelerations.tolist()
     return [
         {"time_from_start": t, "positions": p, "velocities": v, "accelerations": a}
-        for t, p, v, a in zip(times, pos, vel, acc)
+        for t, p, v, a in zip(times, pos, vel, acc, strict=True)
     ]
 
 
@@ -72,5 +73,7 @@ def check_finite(traj: Trajectory) -> None:
 
 def json_response(body: Any, status_code: int = 200) -> Response:
     return Response(
-        orjson.dumps(body, option=JSON_OPTIONS), status_code=status_code, media_type="application/json"
+        orjson.dumps(body, option=JSON_OPTIONS),
+        status_code=status_code,
+        media_type="application/json",
     )
