@@ -1,30 +1,94 @@
-"""``python -m service --host H --port P [--workers N]`` starts the API under uvicorn."""
+"""``python -m service --host H --port P [--workers N]`` starts the API under uvicorn.
+
+Defaults come from the ``TRAJ_*`` environment variables (``service.settings``); a flag wins over its
+variable. Before uvicorn starts, this process
+
+- pins BLAS/OpenMP pools to one thread per worker (``OMP_NUM_THREADS`` etc.) unless already set, so
+  N workers use N cores instead of N x cores threads;
+- with more than one worker, points ``PROMETHEUS_MULTIPROC_DIR`` at a fresh temporary directory
+  (removed on exit) so ``/metrics`` sums every worker; a directory given by the caller is used as is,
+  after its stale ``*.db`` files are deleted;
+- hands uvicorn a logging config with JSON lines (``TRAJ_LOG_FORMAT``) and turns off uvicorn's own
+  access log, since the app writes one line per request with its request id, route and duration.
+
+It imports neither the app nor prometheus_client: workers must see the environment set here first.
+"""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import glob
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
 
 import uvicorn
 
-from service.settings import Settings
+from service.logging_setup import log_config
+from service.settings import LOG_LEVELS, Settings, SettingsError
+
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+MULTIPROC_VAR = "PROMETHEUS_MULTIPROC_DIR"
+
+
+@contextlib.contextmanager
+def multiprocess_metrics_dir(workers: int) -> Iterator[str | None]:
+    """Set ``PROMETHEUS_MULTIPROC_DIR`` for the workers; yield it (``None``: single-process mode)."""
+    given = os.environ.get(MULTIPROC_VAR)
+    if given:
+        os.makedirs(given, exist_ok=True)
+        for stale in glob.glob(os.path.join(given, "*.db")):
+            os.remove(stale)
+        yield given
+        return
+    if workers <= 1:
+        yield None
+        return
+    path = tempfile.mkdtemp(prefix="traj-metrics-")
+    os.environ[MULTIPROC_VAR] = path
+    try:
+        yield path
+    finally:
+        os.environ.pop(MULTIPROC_VAR, None)
+        shutil.rmtree(path, ignore_errors=True)
 
 
 def main(argv: list[str] | None = None) -> None:
-    settings = Settings.from_env()
-    parser = argparse.ArgumentParser(prog="python -m service", description=__doc__)
-    parser.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
-    parser.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
-    parser.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
-    parser.add_argument("--log-level", default=settings.log_level, help="uvicorn log level")
-    args = parser.parse_args(argv)
-    uvicorn.run(
-        "service.app:create_app",
-        factory=True,
-        host=args.host,
-        port=args.port,
-        workers=args.workers,
-        log_level=args.log_level,
+    parser = argparse.ArgumentParser(
+        prog="python -m service", description="Start Trajectory Service under uvicorn."
     )
+    try:
+        settings = Settings.from_env()
+    except SettingsError as e:
+        parser.error(str(e))
+    parser.add_argument("--host", default=settings.host, help=f"bind address ({settings.host})")
+    parser.add_argument(
+        "--port", type=int, default=settings.port, help=f"TCP port ({settings.port})"
+    )
+    parser.add_argument(
+        "--workers", type=int, default=settings.workers, help=f"processes ({settings.workers})"
+    )
+    parser.add_argument(
+        "--log-level", type=str.lower, default=settings.log_level, choices=LOG_LEVELS
+    )
+    args = parser.parse_args(argv)
+    if args.workers < 1:
+        parser.error("--workers must be >= 1")
+    for var in THREAD_VARS:
+        os.environ.setdefault(var, "1")
+    with multiprocess_metrics_dir(args.workers):
+        uvicorn.run(
+            "service.app:create_app",
+            factory=True,
+            host=args.host,
+            port=args.port,
+            workers=args.workers,
+            log_level=args.log_level,
+            log_config=log_config(args.log_level, settings.log_format),
+            access_log=False,
+        )
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
 from core import exceptions as ex
+from service import metrics
 
 log = logging.getLogger("service.errors")
 
@@ -48,9 +49,7 @@ def _finite_or_none(value: Any) -> Any:
     return f if f == f and abs(f) != float("inf") else None
 
 
-def problem_body(
-    status: int, code: str, title: str, detail: str, **extra: Any
-) -> dict[str, Any]:
+def problem_body(status: int, code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:
     """The problem+json document as a dict (``None`` values dropped)."""
     body: dict[str, Any] = {
         "type": PROBLEM_TYPE_BASE + code,
@@ -100,6 +99,7 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(ex.PlanningError)
     async def _planning(_: Request, err: ex.PlanningError) -> Response:
         status, body = planning_error_body(err)
+        metrics.planning_failure(err.code)
         return problem_response(status, body)
 
     @app.exception_handler(RequestValidationError)
