@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from fastapi import FastAPI
 
-from service import __version__, errors
+from service import __version__, errors, metrics
 from service.body_limit import BodyLimitMiddleware
-from service.routes import health
+from service.observability import ObservabilityMiddleware
+from service.routes import cartesian, health, ready, robots, trajectories
 from service.settings import Settings
 
 
@@ -23,7 +24,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     errors.install(app)
-    for module in (health,):
+    for module in (health, ready, metrics, robots, trajectories, cartesian):
         app.include_router(module.router)
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    # Added last = outermost: request id, metrics and access line cover every answer, 413 included.
+    app.add_middleware(
+        ObservabilityMiddleware, routes=app.router.routes, access_log=settings.access_log
+    )
     return app

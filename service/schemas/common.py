@@ -6,9 +6,13 @@ documented physical bound, so no request can make the service emit an infinite n
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from core.rotations import QUAT_NORM_TOLERANCE, matrix_to_pose, pose_to_matrix
 
 MAX_JOINTS = 64
 MAX_POSITION = 1e4
@@ -36,7 +40,11 @@ PositiveAcceleration = Annotated[float, Field(gt=0, le=MAX_ACCELERATION)]
 
 JointPositions = Annotated[
     list[Position],
-    Field(min_length=1, max_length=MAX_JOINTS, description="Joint positions [rad or m], one per joint."),
+    Field(
+        min_length=1,
+        max_length=MAX_JOINTS,
+        description="Joint positions [rad or m], one per joint.",
+    ),
 ]
 JointVelocities = Annotated[
     list[Velocity],
@@ -44,7 +52,9 @@ JointVelocities = Annotated[
 ]
 JointAccelerations = Annotated[
     list[Acceleration],
-    Field(min_length=1, max_length=MAX_JOINTS, description="Joint accelerations [rad/s^2 or m/s^2]."),
+    Field(
+        min_length=1, max_length=MAX_JOINTS, description="Joint accelerations [rad/s^2 or m/s^2]."
+    ),
 ]
 
 
@@ -73,7 +83,10 @@ class Limits(StrictModel):
     """Per-joint limits overriding the robot's (or required when no robot is named)."""
 
     velocity: list[PositiveVelocity] | None = Field(
-        default=None, min_length=1, max_length=MAX_JOINTS, description="Speed limits [rad/s or m/s], > 0."
+        default=None,
+        min_length=1,
+        max_length=MAX_JOINTS,
+        description="Speed limits [rad/s or m/s], > 0.",
     )
     acceleration: list[PositiveAcceleration] | None = Field(
         default=None,
@@ -93,7 +106,10 @@ class Sampling(StrictModel):
         description="Spacing of the returned points [s] (default 0.01); at most 100,000 points.",
     )
     samples: int | None = Field(
-        default=None, ge=2, le=100_000, description="Number of returned points, evenly spaced in time."
+        default=None,
+        ge=2,
+        le=100_000,
+        description="Number of returned points, evenly spaced in time.",
     )
 
     @model_validator(mode="after")
@@ -167,3 +183,41 @@ PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
     413: {"model": Problem, "description": "Body over 2 MiB"},
     422: {"model": Problem, "description": "Invalid request or planning failure"},
 }
+
+
+Quaternion = Annotated[float, Field(ge=-1.001, le=1.001)]
+
+
+class Pose(StrictModel):
+    """A tool pose in the robot's base frame.
+
+    ``orientation`` is a quaternion in ROS order (x, y, z, w); one whose norm is off 1 by more than
+    1e-3 is rejected, otherwise it is normalized. ``as_matrix()`` gives ``T_base_tool`` (4x4).
+    """
+
+    position: list[Position] = Field(
+        min_length=3, max_length=3, description="Tool position [x, y, z] in [m], each |.| <= 1e4."
+    )
+    orientation: list[Quaternion] = Field(
+        min_length=4,
+        max_length=4,
+        description="Unit quaternion [x, y, z, w] (ROS order); norm within 1e-3 of 1, normalized.",
+    )
+
+    @field_validator("orientation")
+    @classmethod
+    def _unit_quaternion(cls, q: list[float]) -> list[float]:
+        norm = math.sqrt(sum(v * v for v in q))
+        if abs(norm - 1.0) > QUAT_NORM_TOLERANCE:
+            raise ValueError("quaternion norm must be within 1e-3 of 1")
+        return [v / norm for v in q]
+
+    def as_matrix(self) -> np.ndarray:
+        """``T_base_tool`` (4, 4)."""
+        return pose_to_matrix(np.array(self.position), np.array(self.orientation))
+
+    @classmethod
+    def from_matrix(cls, T: np.ndarray) -> Pose:
+        """The pose of ``T`` (4, 4); the quaternion has ``w >= 0``."""
+        p, q = matrix_to_pose(T)
+        return cls.model_construct(position=p.tolist(), orientation=q.tolist())

@@ -1,0 +1,273 @@
+"""Robot: a pinocchio model of a serial chain with its frames and limits; FK, Jacobian, IK.
+
+``Robot`` satisfies ``core.kinematics.Kinematics``. It holds only read-only data: every pinocchio call
+gets a fresh ``pin.Data`` (about 6 us), so one ``Robot`` serves concurrent requests from any number of
+threads. ``fk_many`` uses a vectorized numpy product of joint transforms (``robots.chain.Chain``),
+extracted once from the model and tested equal to pinocchio.
+
+Conventions: ``T_base_tool`` is the tip frame in the base frame (4x4, meters); the Jacobian is
+``(6, dof)`` in the base frame, linear rows first; joint positions in [rad] (revolute) or [m]
+(prismatic), in ``joint_names`` order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
+
+import numpy as np
+import pinocchio as pin
+
+from core.exceptions import InputError, UnknownFrame
+from core.kinematics import TASK_SPACES, IKResult, task_rows
+from robots import ik as _ik
+from robots.chain import Chain
+
+ClosedFormIK = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, bool]]
+"""(goal x, y in the base frame [m], seed (dof,)) -> (joint positions, inside the limits)."""
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+class Robot:
+    """A robot's kinematics.
+
+    Args:
+        name: Registered name, or ``inline-<hash>`` for a client URDF.
+        model: pinocchio model holding exactly the chain's movable joints (one dof each).
+        base_frame: Frame (link) of the base; fixed to the model's root.
+        tip_frame: Frame (link) of the tool.
+        task_space: ``"pose"`` or ``"position_xy"``.
+        acceleration_limits: ``(dof,)`` [rad/s^2 or m/s^2], > 0.
+        velocity_limits: ``(dof,)`` [rad/s or m/s], > 0; default the model's (URDF) velocity limits.
+        home: ``(dof,)`` a configuration away from singularities; default zeros clipped into the limits.
+        closed_form_ik: Analytic IK for ``position_xy`` arms (see ``robots.ik.planar_2r``).
+        sources: Where each kind of limit comes from (``"position"``, ``"velocity"``, ...).
+    """
+
+    def __init__(
+        self,
+        name: str,
+        model: pin.Model,
+        *,
+        base_frame: str,
+        tip_frame: str,
+        task_space: str,
+        acceleration_limits: np.ndarray,
+        velocity_limits: np.ndarray | None = None,
+        home: np.ndarray | None = None,
+        closed_form_ik: ClosedFormIK | None = None,
+        sources: Mapping[str, str] | None = None,
+    ) -> None:
+        if task_space not in TASK_SPACES:
+            raise ValueError(f"task_space must be one of {TASK_SPACES}")
+        self._name, self._model, self._task_space = name, model, task_space
+        self._base_frame, self._tip_frame = base_frame, tip_frame
+        self._tip_id = model.getFrameId(tip_frame, pin.FrameType.BODY)
+        self._base_id = model.getFrameId(base_frame, pin.FrameType.BODY)
+        self._chain = Chain.from_model(model, self._tip_id, self._base_id)
+        if len(self._chain.q_index) != model.nq or model.nq != model.nv:
+            raise ValueError("the model must hold exactly the chain's one-dof joints")
+        self._joint_names = tuple(model.names[1:])
+        self._limits = _ro(np.column_stack([model.lowerPositionLimit, model.upperPositionLimit]))
+        revolute = np.zeros(model.nq, dtype=bool)
+        revolute[self._chain.q_index] = self._chain.revolute
+        self._revolute = revolute
+        self._revolute.flags.writeable = False
+        vel = model.velocityLimit if velocity_limits is None else velocity_limits
+        self._velocity = _ro(vel)
+        self._acceleration = _ro(acceleration_limits)
+        home = np.zeros(model.nq) if home is None else home
+        self._home = _ro(np.clip(home, self._limits[:, 0], self._limits[:, 1]))
+        for arr, what in ((self._velocity, "velocity"), (self._acceleration, "acceleration")):
+            if arr.shape != (model.nq,) or not np.all(np.isfinite(arr) & (arr > 0)):
+                raise ValueError(f"{what} limits must be {model.nq} finite values > 0")
+        self._T_base_world = self._chain.T_base_world
+        self._SE3_world_base = pin.SE3(np.linalg.inv(self._T_base_world))
+        self._world_is_base = bool(np.allclose(self._T_base_world, np.eye(4), atol=0, rtol=0))
+        self._closed_form = closed_form_ik
+        self.sources: Mapping[str, str] = MappingProxyType(dict(sources or {}))
+
+    # --- description --------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self._name
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self._joint_names
+
+    @property
+    def dof(self) -> int:
+        return int(self._model.nq)
+
+    @property
+    def task_space(self) -> str:
+        """``"pose"`` or ``"position_xy"``."""
+        return self._task_space
+
+    @property
+    def position_limits(self) -> np.ndarray:
+        """``(dof, 2)`` lower and upper joint position limits [rad or m]."""
+        return self._limits
+
+    @property
+    def velocity_limits(self) -> np.ndarray:
+        """``(dof,)`` joint speed limits [rad/s or m/s], > 0."""
+        return self._velocity
+
+    @property
+    def acceleration_limits(self) -> np.ndarray:
+        """``(dof,)`` joint acceleration limits [rad/s^2 or m/s^2], > 0."""
+        return self._acceleration
+
+    @property
+    def home(self) -> np.ndarray:
+        """``(dof,)`` a configuration inside the limits, away from singularities."""
+        return self._home
+
+    @property
+    def base_frame(self) -> str:
+        return self._base_frame
+
+    @property
+    def tip_frame(self) -> str:
+        return self._tip_frame
+
+    @property
+    def revolute(self) -> np.ndarray:
+        """``(dof,)`` True for revolute joints, False for prismatic ones."""
+        return self._revolute
+
+    @property
+    def chain(self) -> Chain:
+        """The chain's constant data, for vectorized and symbolic FK."""
+        return self._chain
+
+    @property
+    def model(self) -> pin.Model:
+        """The pinocchio model; read-only by convention (create a ``pin.Data`` per use)."""
+        return self._model
+
+    def frame_names(self) -> list[str]:
+        """Names of the model's link frames."""
+        return [f.name for f in self._model.frames if f.type == pin.FrameType.BODY]
+
+    def _q(self, q: np.ndarray, field: str = "positions") -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self._model.nq,):
+            raise InputError(
+                f"{field} needs {self._model.nq} values (one per joint of {self._name})",
+                field=(field,),
+            )
+        return q
+
+    # --- kinematics ---------------------------------------------------------------------------
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """``T_base_tool`` (4, 4) at joint positions ``q`` (dof,)."""
+        data = pin.Data(self._model)
+        pin.forwardKinematics(self._model, data, self._q(q))
+        T = pin.updateFramePlacement(self._model, data, self._tip_id).homogeneous
+        return T if self._world_is_base else self._T_base_world @ T
+
+    def fk_many(self, qs: np.ndarray) -> np.ndarray:
+        """``T_base_tool`` for each row of ``qs`` (N, dof): (N, 4, 4). Vectorized numpy."""
+        qs = np.asarray(qs, dtype=float)
+        if qs.ndim != 2 or qs.shape[1] != self._model.nq:
+            raise InputError(f"fk_many needs an (N, {self._model.nq}) array", field=("positions",))
+        return self._chain.fk_many(qs)
+
+    def frame_pose(self, q: np.ndarray, frame: str) -> np.ndarray:
+        """``T_base_frame`` (4, 4) of any link frame; ``UnknownFrame`` lists the frames."""
+        fid = self._frame_id(frame)
+        data = pin.Data(self._model)
+        pin.forwardKinematics(self._model, data, self._q(q))
+        return self._T_base_world @ pin.updateFramePlacement(self._model, data, fid).homogeneous
+
+    def _frame_id(self, frame: str) -> int:
+        if frame not in self.frame_names():
+            raise UnknownFrame(
+                f"{self._name} has no frame of that name",
+                field=("frame",),
+                extra={"frames": self.frame_names()},
+            )
+        return self._model.getFrameId(frame, pin.FrameType.BODY)
+
+    def jacobian(self, q: np.ndarray, frame: str | None = None) -> np.ndarray:
+        """Geometric Jacobian (6, dof) of the tip (or ``frame``) in the base frame, linear rows first."""
+        fid = self._tip_id if frame is None else self._frame_id(frame)
+        data = pin.Data(self._model)
+        J = pin.computeFrameJacobian(self._model, data, self._q(q), fid, pin.LOCAL_WORLD_ALIGNED)
+        J = J.reshape(6, self._model.nv)  # eigenpy gives a 1-joint Jacobian as a (6,) array
+        if not self._world_is_base:
+            R = self._T_base_world[:3, :3]
+            J = np.vstack([R @ J[:3], R @ J[3:]])
+        return J
+
+    def singular_values(self, q: np.ndarray, jacobian: np.ndarray | None = None) -> np.ndarray:
+        """Singular values of the task rows of the Jacobian, descending, one per task row (6 for
+        ``pose``, 2 for ``position_xy``): zeros pad them when the robot has fewer joints than rows,
+        so that their product is sqrt(det(J J^T))."""
+        J = self.jacobian(q) if jacobian is None else jacobian
+        rows = task_rows(self._task_space)
+        s = np.linalg.svd(J[rows], compute_uv=False)
+        return np.concatenate([s, np.zeros(len(rows) - len(s))])
+
+    def manipulability(self, q: np.ndarray, jacobian: np.ndarray | None = None) -> float:
+        """Yoshikawa's manipulability sqrt(det(J J^T)) over the task rows."""
+        return float(np.prod(self.singular_values(q, jacobian)))
+
+    def ik(
+        self,
+        T_base_tool: np.ndarray,
+        seed: np.ndarray,
+        *,
+        max_iterations: int = 100,
+        position_tolerance: float = 1e-6,
+        orientation_tolerance: float = 1e-6,
+        respect_limits: bool = True,
+    ) -> IKResult:
+        """Joint positions whose tool pose is ``T_base_tool``, from (and near) ``seed`` (dof,).
+
+        ``pose`` robots: Levenberg-Marquardt on the SE3 log error; ``position_xy`` robots: only x and
+        y count (closed form when the robot has one). Converged means within ``position_tolerance``
+        [m] and ``orientation_tolerance`` [rad]; ``success`` also needs the joint limits respected.
+        Never raises for non-convergence: ``success`` is False and the residuals are honest.
+        ``respect_limits=False`` lets the iteration leave the limits (to diagnose a goal reachable
+        only outside them).
+        """
+        T = np.asarray(T_base_tool, dtype=float)
+        seed = self._q(seed, "seed")
+        if T.shape != (4, 4) or not (np.isfinite(T).all() and np.isfinite(seed).all()):
+            raise InputError("IK needs a finite 4x4 T_base_tool and a finite seed", field=("pose",))
+        options = {
+            "max_iterations": int(max_iterations),
+            "position_tolerance": float(position_tolerance),
+            "orientation_tolerance": float(orientation_tolerance),
+            "respect_limits": respect_limits,
+        }
+        limits = (self._limits[:, 0], self._limits[:, 1], self._revolute)
+        if self._task_space == "position_xy":
+            if self._closed_form is not None:
+                return self._closed_form_result(
+                    self._closed_form, T[:2, 3], seed, position_tolerance
+                )
+            return _ik.solve_position_xy(
+                self._model, self._tip_id, self._T_base_world, T[:2, 3], seed, limits, **options
+            )
+        goal = self._SE3_world_base * pin.SE3(T[:3, :3], T[:3, 3])
+        return _ik.solve_pose(self._model, self._tip_id, goal, seed, limits, **options)
+
+    def _closed_form_result(
+        self, solve: ClosedFormIK, goal_xy: np.ndarray, seed: np.ndarray, tol: float
+    ) -> IKResult:
+        q, inside = solve(goal_xy, seed)
+        err = float(np.linalg.norm(self.fk(q)[:2, 3] - goal_xy))
+        return IKResult(q, bool(inside and err <= tol), err, 0.0, 1, bool(inside))
+
+    def __repr__(self) -> str:
+        return f"Robot({self._name!r}, dof={self.dof}, task_space={self._task_space!r})"

@@ -1,0 +1,258 @@
+"""Screening of client URDF text before pinocchio sees it.
+
+Rules, checked in this order (each rejection says what is wrong and never echoes the offending value):
+
+1. At most 1 MiB of UTF-8 (``TooLarge``).
+2. A cheap scan before any XML parsing: more than ``2 * MAX_JOINTS`` ``<joint`` tags is ``TooLarge``
+   (twice the joint bound leaves room for the ``<joint>`` references inside ``<transmission>``), so
+   a 4,000-joint chain never reaches the parser.
+3. defusedxml with DTDs, entities and external references forbidden: an entity-expansion bomb stops
+   at its ``<!DOCTYPE`` (``InvalidURDF``), as does XML that is not well formed.
+4. A ``<robot>`` root; unique link and joint names; at most ``MAX_JOINTS`` joints (``TooLarge``).
+5. Joint types: revolute, prismatic, continuous and fixed only; parent and child links exist; the
+   links form one tree (one root, every link has at most one parent, no cycles).
+6. Numbers: origins and axes are finite (``|xyz| <= 1e4`` m), axes non-zero; revolute and prismatic
+   joints have finite ``lower <= upper`` limits; velocity limits, when present, are finite and >= 0.
+7. ``tip_frame`` and ``base_frame`` are links; the base is fixed to the root (no movable joint between
+   them); at least one movable joint lies between the root and the tip.
+
+The screened model is rewritten as a minimal URDF (links and joints only): ``<visual>``,
+``<collision>``, ``<inertial>``, ``<transmission>``, ``<mimic>`` and every other element are dropped,
+so meshes are never loaded. Continuous joints become revolute joints with position limits
+``+-CONTINUOUS_LIMIT`` (1e4 rad, the API's position bound), because pinocchio's continuous joint has a
+2-number configuration (cos, sin). Position limits are clamped to ``+-1e4``. Missing or zero velocity
+limits stay 0 here; ``robots.registry`` fills in its documented defaults.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import defusedxml.ElementTree as DET
+from defusedxml import DefusedXmlException
+
+from core.exceptions import InvalidURDF, TooLarge
+
+MAX_URDF_BYTES = 1024 * 1024
+MAX_JOINTS = 64
+MAX_COORDINATE = 1e4
+"""Largest |origin coordinate| [m] and |joint position limit| [rad or m] accepted."""
+CONTINUOUS_LIMIT = 1e4
+"""Position limits [rad] given to a continuous joint (pinocchio models it as bounded revolute)."""
+JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
+FIELD = ("robot", "urdf")
+_JOINT_TAG = re.compile(r"<joint[\s/>]")
+
+
+@dataclass(frozen=True)
+class ScreenedURDF:
+    """A URDF that passed screening.
+
+    Attributes:
+        xml: Minimal URDF (links and joints only) for pinocchio.
+        chain: Movable joint names on the path root -> tip, root first.
+        joint_types: Type of each movable joint on the chain (after continuous -> revolute), by name.
+        continuous: Names of the joints converted from continuous to revolute.
+        link_names: Every link, in document order.
+    """
+
+    xml: str
+    chain: tuple[str, ...]
+    joint_types: dict[str, str]
+    continuous: tuple[str, ...]
+    link_names: tuple[str, ...]
+
+
+def _name(s: str) -> str:
+    """A name for an error message, shortened."""
+    return s if len(s) <= 64 else s[:61] + "..."
+
+
+def _floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> tuple[float, ...]:
+    if text is None:
+        return default
+    try:
+        values = tuple(float(v) for v in text.split())
+    except ValueError:
+        raise InvalidURDF(f"{what} is not a list of numbers", field=FIELD) from None
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise InvalidURDF(f"{what} needs {n} finite numbers", field=FIELD)
+    return values
+
+
+def _parse(urdf: str) -> ET.Element:
+    """Parse with DTDs, entities and external references forbidden."""
+    try:
+        return DET.fromstring(
+            urdf.encode("utf-8"), forbid_dtd=True, forbid_entities=True, forbid_external=True
+        )
+    except DefusedXmlException:
+        raise InvalidURDF(
+            "URDF with a DTD, entity declarations or external references is refused", field=FIELD
+        ) from None
+    except ET.ParseError as e:
+        line, col = getattr(e, "position", (0, 0))
+        raise InvalidURDF(
+            f"URDF is not well-formed XML (line {line}, column {col})", field=FIELD
+        ) from None
+
+
+def _precheck(urdf: str) -> None:
+    size = len(urdf.encode("utf-8"))
+    if size > MAX_URDF_BYTES:
+        raise TooLarge(
+            f"URDF is {size} bytes; at most {MAX_URDF_BYTES} (1 MiB) are accepted",
+            field=FIELD,
+            extra={"limit_bytes": MAX_URDF_BYTES},
+        )
+    tags = len(_JOINT_TAG.findall(urdf))
+    if tags > 2 * MAX_JOINTS:
+        raise TooLarge(
+            f"URDF has {tags} <joint> tags; a robot may have at most {MAX_JOINTS} joints",
+            field=FIELD,
+            extra={"limit_joints": MAX_JOINTS},
+        )
+
+
+def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
+    """Checked, minimal copy of one <joint>; returns it and its type after conversion."""
+    where = f"joint '{_name(jname)}'"
+    org = j.find("origin")
+    xyz = _floats(None if org is None else org.get("xyz"), 3, f"{where} origin xyz", (0.0,) * 3)
+    rpy = _floats(None if org is None else org.get("rpy"), 3, f"{where} origin rpy", (0.0,) * 3)
+    if max(abs(v) for v in xyz + rpy) > MAX_COORDINATE:
+        raise InvalidURDF(f"{where} origin is beyond 1e4 (m or rad)", field=FIELD)
+    out = ET.Element("joint", name=jname, type="revolute" if jtype == "continuous" else jtype)
+    ET.SubElement(out, "parent", link=j.find("parent").get("link"))  # type: ignore[union-attr]
+    ET.SubElement(out, "child", link=j.find("child").get("link"))  # type: ignore[union-attr]
+    ET.SubElement(out, "origin", xyz=" ".join(map(repr, xyz)), rpy=" ".join(map(repr, rpy)))
+    if jtype == "fixed":
+        return out, jtype
+    ax = j.find("axis")
+    axis = _floats(None if ax is None else ax.get("xyz"), 3, f"{where} axis", (1.0, 0.0, 0.0))
+    norm = math.sqrt(sum(v * v for v in axis))
+    if not 1e-9 < norm <= MAX_COORDINATE:
+        raise InvalidURDF(f"{where} has a zero or oversized axis", field=FIELD)
+    ET.SubElement(out, "axis", xyz=" ".join(repr(v / norm) for v in axis))
+    lim = j.find("limit")
+    velocity = 0.0
+    if lim is not None and lim.get("velocity") is not None:
+        (velocity,) = _floats(lim.get("velocity"), 1, f"{where} velocity limit", (0.0,))
+        if velocity < 0:
+            raise InvalidURDF(f"{where} has a negative velocity limit", field=FIELD)
+    if jtype == "continuous":
+        lower, upper = -CONTINUOUS_LIMIT, CONTINUOUS_LIMIT
+    else:
+        if lim is None or lim.get("lower") is None or lim.get("upper") is None:
+            raise InvalidURDF(f"{where} ({jtype}) needs <limit lower=... upper=...>", field=FIELD)
+        (lower,) = _floats(lim.get("lower"), 1, f"{where} lower limit", (0.0,))
+        (upper,) = _floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
+        if lower > upper:
+            raise InvalidURDF(f"{where} has lower limit > upper limit", field=FIELD)
+        lower, upper = max(lower, -MAX_COORDINATE), min(upper, MAX_COORDINATE)
+    ET.SubElement(
+        out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity), effort="0"
+    )
+    return out, "revolute" if jtype == "continuous" else jtype
+
+
+def _links_and_joints(root: ET.Element) -> tuple[list[str], list[ET.Element]]:
+    if root.tag != "robot":
+        raise InvalidURDF("the root element of a URDF must be <robot>", field=FIELD)
+    links = [el.get("name", "") for el in root.findall("link")]
+    joints = root.findall("joint")
+    if len(joints) > MAX_JOINTS:
+        raise TooLarge(
+            f"URDF has {len(joints)} joints; at most {MAX_JOINTS} are accepted",
+            field=FIELD,
+            extra={"limit_joints": MAX_JOINTS},
+        )
+    if not links or any(not n for n in links):
+        raise InvalidURDF("every <link> needs a non-empty name, and a URDF needs one", field=FIELD)
+    if len(set(links)) != len(links):
+        raise InvalidURDF("link names must be unique", field=FIELD)
+    names = [j.get("name", "") for j in joints]
+    if any(not n for n in names) or len(set(names)) != len(names):
+        raise InvalidURDF("every <joint> needs a unique, non-empty name", field=FIELD)
+    return links, joints
+
+
+def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
+    """Check ``urdf`` against every rule above; raise ``InvalidURDF`` or ``TooLarge`` on the first
+    broken one, else return the minimal URDF and the movable chain from the root to ``tip_frame``."""
+    _precheck(urdf)
+    links, joints = _links_and_joints(_parse(urdf))
+    link_set = set(links)
+    parent_of: dict[str, tuple[str, str, str]] = {}  # child link -> (joint, type, parent link)
+    out = ET.Element("robot", name="screened")
+    for name in links:
+        ET.SubElement(out, "link", name=name)
+    types: dict[str, str] = {}
+    continuous = []
+    for j in joints:
+        jname, jtype = j.get("name", ""), j.get("type", "")
+        if jtype not in JOINT_TYPES:
+            raise InvalidURDF(
+                f"joint '{_name(jname)}' has an unsupported type; allowed: {', '.join(JOINT_TYPES)}",
+                field=FIELD,
+            )
+        par, chi = j.find("parent"), j.find("child")
+        plink = None if par is None else par.get("link")
+        clink = None if chi is None else chi.get("link")
+        if plink not in link_set or clink not in link_set:
+            raise InvalidURDF(
+                f"joint '{_name(jname)}' names a parent or child link that does not exist",
+                field=FIELD,
+            )
+        if clink in parent_of:
+            raise InvalidURDF(
+                f"link '{_name(clink)}' is the child of more than one joint", field=FIELD
+            )
+        element, types[jname] = _joint_xml(j, jname, jtype)
+        if jtype == "continuous":
+            continuous.append(jname)
+        parent_of[clink] = (jname, types[jname], plink)
+        out.append(element)
+    roots = [name for name in links if name not in parent_of]
+    if len(roots) != 1:
+        raise InvalidURDF(
+            f"the links must form one tree; found {len(roots)} root links", field=FIELD
+        )
+
+    def path_to_root(link: str) -> list[tuple[str, str]]:
+        path: list[tuple[str, str]] = []
+        while link in parent_of:
+            jname, jtype, link = parent_of[link]
+            path.append((jname, jtype))
+            if len(path) > len(links):
+                raise InvalidURDF("the joints form a cycle", field=FIELD)
+        return path
+
+    for link in links:  # a cycle leaves some link unreachable from the single root
+        path_to_root(link)
+    available = {"links": links[: 2 * MAX_JOINTS]}
+    for frame, fname in ((tip_frame, "tip_frame"), (base_frame, "base_frame")):
+        if frame not in link_set:
+            raise InvalidURDF(
+                f"{fname} names no link of the URDF", field=("robot", fname), extra=available
+            )
+    if any(t != "fixed" for _, t in path_to_root(base_frame)):
+        raise InvalidURDF(
+            "base_frame must be fixed to the URDF's root link (a movable joint lies between them)",
+            field=("robot", "base_frame"),
+        )
+    chain = tuple(j for j, t in reversed(path_to_root(tip_frame)) if t != "fixed")
+    if not chain:
+        raise InvalidURDF(
+            "no movable joint lies between the root and tip_frame", field=("robot", "tip_frame")
+        )
+    return ScreenedURDF(
+        xml=ET.tostring(out, encoding="unicode"),
+        chain=chain,
+        joint_types={j: types[j] for j in chain},
+        continuous=tuple(continuous),
+        link_names=tuple(links),
+    )
