@@ -127,7 +127,17 @@ class StraightLine:
         else:
             theta_sq = float(self.rotvec @ self.rotvec)
             rel = (self._rot0.inv() * Rotation.from_matrix(T[:, :3, :3])).as_rotvec()
-            s_rot = rel @ self.rotvec / theta_sq if theta_sq > _EPS else np.zeros(len(T))
+            # Near a half turn the rotation vector may come out as -rel (angle pi about the opposite
+            # axis); the same rotation is also rel (1 - 2 pi / |rel|): use the one nearer the line.
+            angle = np.linalg.norm(rel, axis=1, keepdims=True)
+            alt = rel * (1.0 - 2.0 * np.pi / np.maximum(angle, _EPS))
+            if theta_sq > _EPS:
+                s_a, s_b = rel @ self.rotvec / theta_sq, alt @ self.rotvec / theta_sq
+                d_a = np.linalg.norm(rel - np.clip(s_a, 0.0, 1.0)[:, None] * self.rotvec, axis=1)
+                d_b = np.linalg.norm(alt - np.clip(s_b, 0.0, 1.0)[:, None] * self.rotvec, axis=1)
+                s_rot = np.where(d_b < d_a, s_b, s_a)
+            else:
+                s_rot = np.zeros(len(T))
             w_rot = theta_sq / orientation_tolerance**2
         if w_pos + w_rot > 0.0:
             s = (w_pos * s_pos + w_rot * s_rot) / (w_pos + w_rot)

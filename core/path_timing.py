@@ -54,19 +54,23 @@ class GridTiming:
     Args:
         s: Increasing grid of path parameters from 0 to 1, shape ``(K,)``.
         cap: Largest allowed s' [1/s] at each grid point, ``(K,)``, > 0 inside.
-        max_acceleration: Bound on |s''| [1/s^2], > 0.
+        max_acceleration: Bound on |s''| [1/s^2], > 0: one number, or one per interval ``(K-1,)``
+            (for example from joint acceleration limits, which bound s'' less where joints move less).
     """
 
-    def __init__(self, s: np.ndarray, cap: np.ndarray, max_acceleration: float) -> None:
+    def __init__(
+        self, s: np.ndarray, cap: np.ndarray, max_acceleration: float | np.ndarray
+    ) -> None:
         s = np.asarray(s, dtype=float)
         v2 = np.minimum(np.asarray(cap, dtype=float), 1e12) ** 2
         v2[0] = v2[-1] = 0.0
-        a2 = 2.0 * float(max_acceleration)
-        # Forward pass: v2[i+1] <= v2[i] + 2a ds, i.e. (v2 - 2a s) non-increasing.
-        v2 = np.minimum(v2, np.minimum.accumulate(v2 - a2 * s) + a2 * s)
-        # Backward pass: v2[i] <= v2[i+1] + 2a ds.
-        rev = v2[::-1] + a2 * s[::-1]
-        v2 = np.minimum(v2, (np.minimum.accumulate(rev) - a2 * s[::-1])[::-1])
+        acc = np.broadcast_to(np.asarray(max_acceleration, dtype=float), (len(s) - 1,))
+        # A[i] = sum over intervals k < i of 2 a_k ds_k: the most v2 = s'^2 can grow from s[0].
+        A = np.concatenate([[0.0], np.cumsum(2.0 * acc * np.diff(s))])
+        # Forward pass: v2[i+1] <= v2[i] + 2 a_i ds_i, i.e. (v2 - A) non-increasing.
+        v2 = np.minimum(v2, np.minimum.accumulate(v2 - A) + A)
+        # Backward pass: v2[i] <= v2[i+1] + 2 a_i ds_i, i.e. (v2 + A) non-decreasing from the end.
+        v2 = np.minimum(v2, np.minimum.accumulate((v2 + A)[::-1])[::-1] - A)
         self.s = s
         self.sdot = np.sqrt(np.maximum(v2, 0.0))
         ds = np.diff(s)
@@ -111,12 +115,14 @@ def speed_limited(
     max_angular_acceleration: float = DEFAULT_ANGULAR_ACCELERATION,
     cap: np.ndarray | None = None,
     s: np.ndarray | None = None,
+    acceleration_cap: np.ndarray | None = None,
 ) -> GridTiming:
     """Shortest rest-to-rest s(t) for a line of ``length`` [m] turning ``angle`` [rad].
 
     The tool's linear speed stays <= ``max_linear_speed`` [m/s] and angular speed <=
     ``max_angular_speed`` [rad/s] (each ignored when None or when the line has no such motion),
-    accelerations likewise; ``cap`` (on grid ``s``) adds a further s' cap, e.g. from joint limits.
+    accelerations likewise; ``cap`` (on grid ``s``) adds a further s' cap, e.g. from joint limits,
+    and ``acceleration_cap`` (one per interval of ``s``, [1/s^2]) a further bound on |s''|.
     """
     sdot_max, sddot_max = np.inf, np.inf
     for extent, speed, acc in (
@@ -138,6 +144,8 @@ def speed_limited(
     full = np.full(grid.shape, sdot_max)
     if cap is not None:
         full = np.minimum(full, cap)
+    if acceleration_cap is not None:
+        return GridTiming(grid, full, np.minimum(sddot_max, acceleration_cap))
     return GridTiming(grid, full, sddot_max)
 
 

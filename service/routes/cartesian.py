@@ -1,0 +1,56 @@
+"""POST /v1/trajectories/cartesian: the tool on the straight line from FK(start) to the goal pose.
+
+Thin route: schema -> ``CartesianTask`` (``service.cartesian_convert``) -> ``core.cartesian_task.plan``
+-> response. Every method of API.md is accepted and passed on to the core's dispatch. Plain ``def``:
+planning is CPU-bound, so FastAPI runs it in its thread pool.
+"""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Query, Request
+from starlette.responses import Response
+
+from core.budget import Deadline
+from robots import registry
+from service import cartesian_convert
+from service.encoding import json_response
+from service.schemas.cartesian import CartesianRequest, CartesianResponse
+from service.schemas.common import PROBLEM_RESPONSES, TimeFormat
+
+router = APIRouter(prefix="/v1/trajectories", tags=["cartesian"])
+
+RESPONSES = {200: {"model": CartesianResponse, "description": "The planned trajectory"}}
+RESPONSES.update(PROBLEM_RESPONSES)
+TIME_FORMAT = Query(
+    "float",
+    description="float: time_from_start in seconds; ros: a ROS Duration {sec, nanosec} "
+    "(0 <= nanosec < 1e9), converted through integer nanoseconds.",
+)
+
+
+@router.post(
+    "/cartesian",
+    responses=RESPONSES,
+    summary="Straight-line Cartesian motion: sampled IK, bounded deviation, resolved rate",
+    description=(
+        "The tool moves on the straight line from FK(start.positions) to the goal pose: position by "
+        "linear interpolation, orientation by slerp on the shorter arc (position_xy robots: x and y "
+        "only). s(t) follows a quintic over `duration`, or the shortest profile under "
+        "`max_linear_speed`/`max_angular_speed`, slowed down where joint limits need it (a "
+        "warning says where). A plan that cannot be completed is 422 with `code` (unreachable, "
+        "joint_limit, branch_flip, singularity, joint_rate_limit, ...) and `s`; with "
+        "`allow_partial` it is 200 with the planned prefix, `fraction` < 1 and "
+        "`diagnostics.failure`."
+    ),
+)
+def cartesian_trajectory(
+    body: CartesianRequest, request: Request, time_format: TimeFormat = TIME_FORMAT
+) -> Response:
+    settings = request.app.state.settings
+    deadline = Deadline(settings.time_budget_s)
+    robot = registry.resolve(body.robot)
+    task = cartesian_convert.task_from_spec(body, robot, deadline, settings.max_points)
+    result, elapsed_ms = cartesian_convert.run(task, body.method, settings.max_points)
+    return json_response(
+        cartesian_convert.result_body(task, result, body.method, elapsed_ms, time_format)
+    )

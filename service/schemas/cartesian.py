@@ -1,0 +1,183 @@
+"""Requests and responses of the Cartesian straight-line endpoint (and the task of /v1/compare).
+
+``CartesianTaskSpec`` is everything but the method, so ``/v1/compare`` reuses it as its ``task``;
+``CartesianRequest`` adds ``method``. Every field carries its unit and bounds. Lengths that depend
+on the robot (``start.positions``, ``goal.positions``) are checked in ``service/cartesian_convert.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from service.schemas.common import (
+    MAX_DURATION,
+    JointPositions,
+    Pose,
+    RobotRef,
+    StrictModel,
+    TrajectoryResponse,
+)
+
+Method = Literal[
+    "sampled", "bounded_deviation", "bounded_deviation_nlp", "resolved_rate", "resolved_rate_dls"
+]
+"""The methods of API.md (``core.cartesian_task.METHODS``; a test keeps the two equal)."""
+
+MAX_LINEAR_SPEED = 10.0
+"""Largest ``max_linear_speed`` [m/s] accepted."""
+MAX_ANGULAR_SPEED = 100.0
+"""Largest ``max_angular_speed`` [rad/s] accepted."""
+
+
+class CartesianStart(StrictModel):
+    """Where the arm starts: joint positions; the line starts at their forward kinematics."""
+
+    positions: JointPositions = Field(
+        description="Start joint positions [rad or m], one per joint of the robot, inside its limits."
+    )
+
+
+class CartesianGoal(StrictModel):
+    """Where the line ends: a tool pose, or joint positions whose forward kinematics is the pose."""
+
+    pose: Pose | None = Field(
+        default=None,
+        description="Goal tool pose in the robot's base frame (for position_xy robots only x and y count).",
+    )
+    positions: JointPositions | None = Field(
+        default=None,
+        description="Goal joint positions [rad or m]: the goal pose is their forward kinematics; the "
+        "trajectory ends at them when the line arrives on their branch (else a warning).",
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> Any:
+        if (self.pose is None) == (self.positions is None):
+            raise ValueError("give exactly one of goal.pose or goal.positions")
+        return self
+
+
+class Tolerance(StrictModel):
+    """Allowed deviation of the tool from the line."""
+
+    position: float = Field(
+        default=1e-3,
+        ge=1e-6,
+        le=1.0,
+        description="Position tolerance [m], 1e-6 to 1 (default 0.001).",
+    )
+    orientation: float = Field(
+        default=1e-2,
+        ge=1e-6,
+        le=math.pi,
+        description="Orientation tolerance [rad], 1e-6 to pi (default 0.01).",
+    )
+
+
+class CartesianTaskSpec(StrictModel):
+    """A straight-line task: the tool moves on the line from FK(start) to the goal pose."""
+
+    robot: RobotRef
+    start: CartesianStart = Field(
+        description="Start joint positions; the line starts at their forward kinematics."
+    )
+    goal: CartesianGoal = Field(
+        description="Goal tool pose, or goal joint positions (their forward kinematics)."
+    )
+    tolerance: Tolerance = Field(
+        default_factory=Tolerance,
+        description="Position [m] and orientation [rad] tolerance. sampled: sets the IK step along "
+        "the line (10 tolerances of travel); bounded deviation: the bound.",
+    )
+    duration: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_DURATION,
+        description="Fixed duration [s], 0 < duration <= 1e5 (a quintic s(t)); joint speeds that "
+        "would exceed their limits are 422 joint_rate_limit with the s and min_duration. Not "
+        "together with max_linear_speed/max_angular_speed.",
+    )
+    max_linear_speed: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_LINEAR_SPEED,
+        description="Tool speed limit [m/s], 0 < v <= 10. Without duration and speed limits: 0.25 "
+        "m/s and 1 rad/s. Tool accelerations: 1 m/s^2 and 2 rad/s^2. The planner slows down further "
+        "where joint velocity or acceleration limits need it (a warning says where).",
+    )
+    max_angular_speed: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_ANGULAR_SPEED,
+        description="Tool angular speed limit [rad/s], 0 < w <= 100.",
+    )
+    sample_period: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_DURATION,
+        description="Spacing of the returned points in time [s] (default 0.01); at most 100,000 points.",
+    )
+    samples: int | None = Field(
+        default=None,
+        ge=2,
+        le=100_000,
+        description="Number of returned points, equally spaced along the line (in s, the notes' N "
+        "points), timed by s(t). Not together with sample_period.",
+    )
+    control_period: float = Field(
+        default=1e-3,
+        ge=1e-4,
+        le=0.1,
+        description="Control tick of the resolved-rate methods [s], 1e-4 to 0.1 (default 0.001).",
+    )
+    allow_partial: bool = Field(
+        default=False,
+        description="When the line cannot be completed: 200 with the planned prefix (fraction < 1, "
+        "diagnostics.failure) instead of 422.",
+    )
+    solver: str = Field(
+        default="osqp",
+        min_length=1,
+        max_length=32,
+        pattern=r"^[a-z0-9_]+$",
+        description="QP solver of resolved_rate_dls (a qpsolvers name; default osqp).",
+    )
+
+    @model_validator(mode="after")
+    def _exclusive(self) -> Any:
+        if self.duration is not None and (
+            self.max_linear_speed is not None or self.max_angular_speed is not None
+        ):
+            raise ValueError("give duration or max_linear_speed/max_angular_speed, not both")
+        if self.sample_period is not None and self.samples is not None:
+            raise ValueError("give sample_period or samples, not both")
+        return self
+
+
+class CartesianRequest(CartesianTaskSpec):
+    """POST /v1/trajectories/cartesian."""
+
+    method: Method = Field(
+        description="sampled | bounded_deviation | bounded_deviation_nlp | resolved_rate | "
+        "resolved_rate_dls."
+    )
+
+
+class Knot(BaseModel):
+    s: float = Field(description="Path parameter in [0, 1].")
+    time_from_start: float | dict[str, int] = Field(
+        description="Time [s] (ROS Duration with ?time_format=ros)."
+    )
+    positions: list[float] = Field(description="Joint positions [rad or m].")
+
+
+class CartesianResponse(TrajectoryResponse):
+    """The trajectory; diagnostics add fraction, max_position_deviation [m],
+    max_orientation_deviation [rad], min_singular_value, failure (partial plans), profiles."""
+
+    model_config = ConfigDict(extra="allow")
+
+    knots: list[Knot] | None = Field(default=None, description="Bounded-deviation knots.")
