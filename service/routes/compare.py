@@ -1,0 +1,67 @@
+"""POST /v1/compare: one Cartesian task through every method, diagnostics side by side.
+
+The robot and the task are resolved once (an invalid task fails the whole request); then each method
+plans with its own wall-time budget (``TRAJ_TIME_BUDGET_S``), so the request is bounded by the budget
+times the number of methods. One method's failure is its row's problem+json, never the request's.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from fastapi import APIRouter, Query, Request
+from starlette.responses import Response
+
+from core.budget import Deadline
+from core.cartesian_task import METHODS
+from core.exceptions import PlanningError
+from robots import registry
+from service import cartesian_convert
+from service.encoding import json_response
+from service.errors import planning_error_body
+from service.schemas.common import PROBLEM_RESPONSES, TimeFormat
+from service.schemas.compare import CompareRequest, CompareResponse
+
+router = APIRouter(prefix="/v1", tags=["compare"])
+
+RESPONSES: dict[int | str, dict[str, Any]] = {
+    200: {"model": CompareResponse, "description": "One row per method"}
+}
+RESPONSES.update(PROBLEM_RESPONSES)
+
+
+@router.post(
+    "/compare",
+    responses=RESPONSES,
+    summary="Run one Cartesian task through several methods and compare their diagnostics",
+)
+def compare(
+    body: CompareRequest,
+    request: Request,
+    time_format: TimeFormat = Query("float", description="float seconds or ros Duration"),
+) -> Response:
+    settings = request.app.state.settings
+    robot = registry.resolve(body.task.robot)
+    methods = body.methods or list(METHODS)
+    rows = []
+    for method in methods:
+        deadline = Deadline(settings.time_budget_s)
+        task = cartesian_convert.task_from_spec(body.task, robot, deadline, settings.max_points)
+        started = time.perf_counter()
+        try:
+            result, elapsed_ms = cartesian_convert.run(task, method, settings.max_points)
+        except PlanningError as err:
+            _, problem = planning_error_body(err)
+            elapsed = (time.perf_counter() - started) * 1e3
+            diagnostics = {"method": method, "compute_time_ms": elapsed, "code": err.code}
+            rows.append(
+                {"method": method, "ok": False, "error": problem, "diagnostics": diagnostics}
+            )
+            continue
+        doc = cartesian_convert.result_body(task, result, method, elapsed_ms, time_format)
+        row: dict[str, Any] = {"method": method, "ok": True, "diagnostics": doc.pop("diagnostics")}
+        if body.include_trajectories:
+            row["trajectory"] = doc
+        rows.append(row)
+    return json_response({"results": rows})

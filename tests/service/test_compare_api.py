@@ -1,0 +1,106 @@
+"""POST /v1/compare: a row per method, failures isolated in their rows, bad tasks rejected whole."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from core.cartesian_task import METHODS
+from robots import registry
+from service.app import create_app
+
+
+@pytest.fixture(scope="module")
+def client():
+    return TestClient(create_app())
+
+
+def _ur5_task(**extra):
+    ur5 = registry.get("ur5")
+    q0 = ur5.home
+    T = ur5.fk(q0)
+    T[:3, 3] += [0.05, 0.05, -0.03]
+    from core.rotations import matrix_to_pose
+
+    position, orientation = matrix_to_pose(T)
+    task = {
+        "robot": "ur5",
+        "start": {"positions": q0.tolist()},
+        "goal": {"pose": {"position": list(position), "orientation": list(orientation)}},
+        "duration": 1.0,
+    }
+    task.update(extra)
+    return task
+
+
+def test_compare_returns_a_row_per_method_in_order(client):
+    r = client.post("/v1/compare", json={"task": _ur5_task(), "include_trajectories": True})
+    assert r.status_code == 200, r.text
+    rows = r.json()["results"]
+    assert [row["method"] for row in rows] == list(METHODS)
+    for row in rows:
+        assert row["ok"], row
+        diag = row["diagnostics"]
+        assert diag["method"] == row["method"]
+        assert diag["fraction"] == pytest.approx(1.0)
+        assert diag["max_position_deviation"] <= 1e-3 + 1e-9
+        traj = row["trajectory"]
+        assert len(traj["points"]) >= 2
+        assert np.allclose(traj["points"][-1]["velocities"], 0.0)
+
+
+def test_one_failing_method_does_not_fail_the_others(client):
+    # Planar arm straight through its inner hole (r < 0.2 m): sampled IK fails with unreachable,
+    # the bounded-deviation method plans nothing through it either; each row keeps its own outcome.
+    arm = registry.get("planar_2r")
+    T = np.eye(4)
+    T[:3, 3] = [0.6, 0.05, 0.0]
+    q0 = arm.ik(T, arm.home).positions
+    task = {
+        "robot": "planar_2r",
+        "start": {"positions": q0.tolist()},
+        "goal": {"pose": {"position": [-0.6, -0.05, 0.0], "orientation": [0, 0, 0, 1]}},
+        "duration": 4.0,
+    }
+    methods = ["sampled", "bounded_deviation", "resolved_rate_dls"]
+    r = client.post("/v1/compare", json={"task": task, "methods": methods})
+    assert r.status_code == 200, r.text
+    rows = r.json()["results"]
+    assert [row["method"] for row in rows] == methods
+    sampled = rows[0]
+    assert not sampled["ok"]
+    assert sampled["error"]["code"] == "unreachable"
+    assert sampled["error"]["s"] == pytest.approx(0.5 - np.sqrt(0.2**2 - 0.0) / 1.2, abs=0.03)
+    for row in rows:
+        if row["ok"]:
+            assert row["diagnostics"]["max_position_deviation"] <= 1e-3 + 1e-9
+        else:
+            assert row["error"]["status"] == 422 and row["error"]["detail"]
+
+
+def test_mixed_rows_keep_their_own_outcome(client):
+    task = _ur5_task(solver="no_such_solver")
+    r = client.post("/v1/compare", json={"task": task, "methods": ["sampled", "resolved_rate_dls"]})
+    assert r.status_code == 200, r.text
+    rows = {row["method"]: row for row in r.json()["results"]}
+    assert rows["sampled"]["ok"]
+    assert not rows["resolved_rate_dls"]["ok"]
+    assert rows["resolved_rate_dls"]["error"]["code"] == "validation"
+
+
+@pytest.mark.parametrize(
+    ("body", "status", "code"),
+    [
+        ({"task": {}}, 422, "validation"),
+        ({"task": _ur5_task(), "methods": ["sampled", "sampled"]}, 422, "validation"),
+        ({"task": _ur5_task(), "methods": ["teleport"]}, 422, "validation"),
+        ({"task": _ur5_task(), "surprise": 1}, 422, "validation"),
+        ({"task": {**_ur5_task(), "robot": "r2d2"}}, 404, "unknown_robot"),
+    ],
+)
+def test_bad_compare_requests(client, body, status, code):
+    r = client.post("/v1/compare", json=body)
+    assert r.status_code == status
+    assert r.headers["content-type"].startswith("application/problem+json")
+    assert r.json()["code"] == code
