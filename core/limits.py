@@ -1,0 +1,167 @@
+"""Per-joint limits and the checks of request values and plans against them.
+
+``JointLimits`` holds velocity, acceleration and position limits (``None``: not known, unbounded);
+``joint_vector`` validates one value per joint; ``check_rates``, ``check_boundary_rates`` and
+``check_positions`` raise ``JointRateLimit`` / ``JointLimit`` with the joint, and the request field
+or the sample at fault. Units: [rad or m], per [s], per [s^2]; arrays ``(dof,)`` or ``(N, dof)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.exceptions import InputError, JointLimit, JointRateLimit
+
+RATE_TOLERANCE = 1e-9
+"""Relative slack when a sampled plan is checked against velocity/acceleration limits."""
+POSITION_TOLERANCE = 1e-9
+"""Absolute slack [rad or m] when positions are checked against position limits."""
+
+Field = tuple[str | int, ...]
+
+
+def joint_vector(
+    value: object, dof: int, field: Field, *, default: float | None = None
+) -> np.ndarray:
+    """``value`` as a finite float array ``(dof,)``; ``None`` gives ``default`` everywhere.
+
+    Raises:
+        InputError: naming ``field`` when the length is not ``dof`` or a value is not finite.
+    """
+    if value is None:
+        if default is None:
+            raise InputError(f"{_dotted(field)} is required", field=field)
+        return np.full(dof, float(default))
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (dof,):
+        raise InputError(f"{_dotted(field)} needs {dof} values, one per joint", field=field)
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{_dotted(field)} must hold finite numbers", field=field)
+    return arr
+
+
+def _dotted(field: Field) -> str:
+    return ".".join(str(p) for p in field)
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Per-joint limits; ``None`` means the limit is not known (treated as unbounded).
+
+    Attributes:
+        velocity: Speed limits ``(dof,)`` in [rad/s or m/s], > 0 (``inf`` allowed).
+        acceleration: Acceleration limits ``(dof,)`` in [rad/s^2 or m/s^2], > 0 (``inf`` allowed).
+        position: Position limits ``(dof, 2)`` lower, upper in [rad or m] (``±inf`` allowed).
+    """
+
+    velocity: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
+    position: np.ndarray | None = None
+
+    def validate(self, dof: int) -> None:
+        """Check shapes and values against ``dof``; raise ``InputError`` naming ``limits.*``."""
+        for name in ("velocity", "acceleration"):
+            lim = getattr(self, name)
+            if lim is None:
+                continue
+            field = ("limits", name)
+            if np.shape(lim) != (dof,):
+                raise InputError(f"limits.{name} needs {dof} values, one per joint", field=field)
+            if np.any(np.isnan(lim)) or np.any(lim <= 0):
+                raise InputError(f"limits.{name} must be > 0 for every joint", field=field)
+        if self.position is not None:
+            pos = self.position
+            if np.shape(pos) != (dof, 2) or np.any(np.isnan(pos)) or np.any(pos[:, 0] > pos[:, 1]):
+                raise InputError("position limits must be (dof, 2) with lower <= upper", field=None)
+
+    def maxima(self, dof: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(max_velocity, max_acceleration)``, each ``(dof,)``, ``inf`` where unknown."""
+        return tuple(  # type: ignore[return-value]
+            np.full(dof, np.inf) if lim is None else np.asarray(lim, dtype=float)
+            for lim in (self.velocity, self.acceleration)
+        )
+
+
+def check_rates(
+    peak_velocity: np.ndarray | None,
+    peak_acceleration: np.ndarray | None,
+    limits: JointLimits,
+    joint_names: Sequence[str],
+    *,
+    tolerance: float = RATE_TOLERANCE,
+    hint: Callable[[], str] | None = None,
+) -> None:
+    """Raise ``JointRateLimit`` for the joint that exceeds a velocity or acceleration limit most.
+
+    Args:
+        peak_velocity: Largest |velocity| per joint ``(dof,)`` or ``None`` to skip.
+        peak_acceleration: Largest |acceleration| per joint ``(dof,)`` or ``None`` to skip.
+        tolerance: Relative slack.
+        hint: Called only on failure; its text ends the message (say, the shortest duration).
+    """
+    vmax, amax = limits.maxima(len(joint_names))
+    for kind, peak, limit in (
+        ("velocity", peak_velocity, vmax),
+        ("acceleration", peak_acceleration, amax),
+    ):
+        if peak is None:
+            continue
+        ratio = np.asarray(peak, dtype=float) / limit  # 0 where the limit is inf
+        j = int(np.argmax(ratio))
+        if ratio[j] > 1.0 + tolerance:
+            raise JointRateLimit(
+                f"joint {joint_names[j]} would exceed its {kind} limit by "
+                f"{100.0 * (ratio[j] - 1.0):.3g} %{hint() if hint else ''}",
+                joint=j,
+                extra={"limit": kind, "ratio": float(ratio[j])},
+            )
+
+
+def check_boundary_rates(
+    value: np.ndarray, limit: np.ndarray, field: Field, joint_names: Sequence[str]
+) -> None:
+    """Raise ``JointRateLimit`` naming ``field + (joint,)`` where a boundary ``|value|`` ``(dof,)``
+    exceeds ``limit`` ``(dof,)``: no timing can fix a start or goal state over the limits."""
+    over = np.flatnonzero(np.abs(value) > limit)
+    if over.size:
+        j = int(over[0])
+        raise JointRateLimit(
+            f"{_dotted(field)} of joint {joint_names[j]} is over its limit",
+            field=(*field, j),
+            joint=j,
+        )
+
+
+def check_positions(
+    positions: np.ndarray,
+    limits: JointLimits,
+    joint_names: Sequence[str],
+    *,
+    field: Field | None = None,
+    times: np.ndarray | None = None,
+) -> None:
+    """Raise ``JointLimit`` at the first value of ``positions`` ``(N, dof)`` outside the limits.
+
+    With ``field`` the rows are request values (the error names ``field + (row, joint)``, or
+    ``field + (joint,)`` for one row); with ``times`` they are samples of a plan.
+    """
+    if limits.position is None:
+        return
+    lo, hi = limits.position[:, 0], limits.position[:, 1]
+    bad = (positions < lo - POSITION_TOLERANCE) | (positions > hi + POSITION_TOLERANCE)
+    if not bad.any():
+        return
+    row, j = (int(i) for i in np.argwhere(bad)[0])
+    name = joint_names[j]
+    if field is not None:
+        loc = (*field, j) if positions.shape[0] == 1 else (*field, row, j)
+        raise JointLimit(
+            f"{_dotted(loc)}: joint {name} is outside its position limits", field=loc, joint=j
+        )
+    when = "" if times is None else f" at t={float(times[row]):.6g} s"
+    raise JointLimit(
+        f"the plan takes joint {name} outside its position limits{when}", joint=j, sample=row
+    )

@@ -1,0 +1,90 @@
+"""/v1/trajectories/joint and /v1/trajectories/spline: joint-space plans.
+
+Thin routes: schema -> numpy (``service.convert``) -> one core call -> response
+(``service.encoding``).
+Plain ``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
+"""
+
+from __future__ import annotations
+
+import time
+
+from fastapi import APIRouter, Query, Request
+from starlette.responses import Response
+
+from core.budget import Deadline
+from core.point_to_point import plan_joint
+from core.splines import plan_spline
+from service import convert
+from service.schemas.common import PROBLEM_RESPONSES, TimeFormat, TrajectoryResponse
+from service.schemas.trajectories import JointTrajectoryRequest, SplineRequest
+
+router = APIRouter(prefix="/v1/trajectories", tags=["trajectories"])
+
+RESPONSES = {200: {"model": TrajectoryResponse, "description": "The planned trajectory"}}
+RESPONSES.update(PROBLEM_RESPONSES)
+TIME_FORMAT = Query(
+    "float",
+    description="float: time_from_start in seconds; ros: a ROS Duration {sec, nanosec} "
+    "(0 <= nanosec < 1e9), converted through integer nanoseconds.",
+)
+
+
+@router.post(
+    "/joint",
+    responses=RESPONSES,
+    summary="Point-to-point joint move: linear, cubic, quintic or trapezoidal profile",
+)
+def joint_trajectory(
+    body: JointTrajectoryRequest, request: Request, time_format: TimeFormat = TIME_FORMAT
+) -> Response:
+    started = time.perf_counter()
+    motion, limits, names = convert.joint_inputs(body)
+    plan = plan_joint(
+        body.profile,
+        motion,
+        limits,
+        duration=body.duration,
+        sample_period=body.sample_period,
+        samples=body.samples,
+        max_points=request.app.state.settings.max_points,
+        joint_names=names,
+    )
+    return convert.trajectory_response(
+        plan.trajectory, body.profile, plan.warnings, started, time_format
+    )
+
+
+@router.post(
+    "/spline",
+    responses=RESPONSES,
+    summary="C2 cubic spline through waypoints (clamped, natural, not-a-knot)",
+)
+def spline_trajectory(
+    body: SplineRequest, request: Request, time_format: TimeFormat = TIME_FORMAT
+) -> Response:
+    started = time.perf_counter()
+    inputs = convert.spline_inputs(body)
+    settings = request.app.state.settings
+    plan = plan_spline(
+        inputs.waypoints,
+        times=inputs.times,
+        boundary=body.boundary,
+        start_velocity=inputs.start_velocity,
+        goal_velocity=inputs.goal_velocity,
+        limits=inputs.limits,
+        sample_period=body.sample_period,
+        samples=body.samples,
+        max_points=settings.max_points,
+        joint_names=inputs.joint_names,
+        deadline=Deadline(settings.time_budget_s),
+    )
+    return convert.trajectory_response(
+        plan.trajectory,
+        "spline",
+        plan.warnings,
+        started,
+        time_format,
+        boundary=body.boundary,
+        knot_times=plan.knot_times,
+    )

@@ -1,0 +1,212 @@
+"""Point-to-point profiles: the notes' matrices, end conditions in physical units, time scaling,
+exact peaks, synchronization of the trapezoid, and the linear profile's declared velocity steps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.polynomials import (
+    CUBIC_MATRIX,
+    QUINTIC_MATRIX,
+    LinearProfile,
+    PolynomialProfile,
+    TrapezoidalProfile,
+    abs_peak_on_unit,
+    polyval,
+    unit_roots,
+)
+from core.timing import (
+    CUBIC_PEAK_ACCELERATION,
+    CUBIC_PEAK_VELOCITY,
+    QUINTIC_PEAK_ACCELERATION,
+    QUINTIC_PEAK_VELOCITY,
+)
+
+RNG_SEED = 20240402
+
+
+def random_case(rng: np.random.Generator) -> dict:
+    dof = int(rng.integers(1, 8))
+    return {
+        "dof": dof,
+        "T": float(rng.uniform(0.05, 20.0)),
+        "q0": rng.uniform(-3, 3, dof),
+        "q1": rng.uniform(-3, 3, dof),
+        "v0": rng.uniform(-2, 2, dof),
+        "v1": rng.uniform(-2, 2, dof),
+        "a0": rng.uniform(-5, 5, dof),
+        "a1": rng.uniform(-5, 5, dof),
+    }
+
+
+def near_ends(T: float) -> np.ndarray:
+    """Times next to 0 and T, so the polynomial itself is checked, not the pinned end values."""
+    return np.array([np.nextafter(0.0, 1.0), np.nextafter(T, 0.0)])
+
+
+def test_notes_inverse_matrix_of_the_cubic() -> None:
+    # Course notes eq. (2): the inverse printed in the notes.
+    printed = np.array([[2, 1, -2, 1], [-3, -2, 3, -1], [0, 1, 0, 0], [1, 0, 0, 0]], dtype=float)
+    assert np.allclose(np.linalg.inv(CUBIC_MATRIX), printed, atol=1e-14)
+    assert abs(np.linalg.det(QUINTIC_MATRIX)) > 0.5
+
+
+@pytest.mark.parametrize("kind", ["cubic", "quintic"])
+def test_end_conditions_in_physical_units(kind: str) -> None:
+    rng = np.random.default_rng(RNG_SEED)
+    for _ in range(200):
+        c = random_case(rng)
+        a0, a1 = (c["a0"], c["a1"]) if kind == "quintic" else (None, None)
+        prof = PolynomialProfile(c["q0"], c["q1"], c["T"], c["v0"], c["v1"], a0, a1)
+        for t in (near_ends(c["T"]), np.array([0.0, c["T"]])):
+            q, v, a = prof(t, 0), prof(t, 1), prof(t, 2)
+            np.testing.assert_allclose(q, [c["q0"], c["q1"]], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(v, [c["v0"], c["v1"]], rtol=0, atol=1e-9)
+            if kind == "quintic":
+                np.testing.assert_allclose(a, [c["a0"], c["a1"]], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["linear", "trapezoidal"])
+def test_end_conditions_rest_to_rest(kind: str) -> None:
+    rng = np.random.default_rng(RNG_SEED + 1)
+    for _ in range(200):
+        c = random_case(rng)
+        if kind == "linear":
+            prof = LinearProfile(c["q0"], c["q1"], c["T"])
+        else:
+            prof = TrapezoidalProfile(c["q0"], c["q1"], c["T"], rng.uniform(1, 50, c["dof"]))
+        ends = np.array([0.0, c["T"]])
+        np.testing.assert_allclose(prof(ends, 0), [c["q0"], c["q1"]], rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(prof(ends, 1), np.zeros((2, c["dof"])))
+        np.testing.assert_allclose(prof(near_ends(c["T"]), 0), [c["q0"], c["q1"]], atol=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["cubic", "quintic", "trapezoidal"])
+def test_derivatives_match_finite_differences(kind: str) -> None:
+    """Time scaling done right: velocity and acceleration are the time derivatives in [s]."""
+    rng = np.random.default_rng(RNG_SEED + 2)
+    for _ in range(30):
+        c = random_case(rng)
+        if kind == "trapezoidal":
+            prof = TrapezoidalProfile(c["q0"], c["q1"], c["T"], np.full(c["dof"], np.inf))
+        else:
+            quintic = kind == "quintic"
+            a0, a1 = (c["a0"], c["a1"]) if quintic else (None, None)
+            prof = PolynomialProfile(c["q0"], c["q1"], c["T"], c["v0"], c["v1"], a0, a1)
+        t = np.linspace(0.05, 0.95, 37) * c["T"]
+        h = 1e-5 * c["T"]
+        for order in (1, 2):
+            fd = (prof(t + h, order - 1) - prof(t - h, order - 1)) / (2 * h)
+            scale = 1.0 + np.abs(prof(t, order)).max()
+            kink = kind == "trapezoidal" and order == 2  # acceleration steps at phase switches
+            if not kink:
+                np.testing.assert_allclose(prof(t, order), fd, rtol=0, atol=1e-5 * scale)
+
+
+def test_rest_to_rest_peaks_match_the_closed_forms() -> None:
+    rng = np.random.default_rng(RNG_SEED + 3)
+    q0, q1, T = rng.uniform(-2, 2, 5), rng.uniform(-2, 2, 5), 1.7
+    zero = np.zeros(5)
+    dq = np.abs(q1 - q0)
+    for prof, kv, ka in (
+        (PolynomialProfile(q0, q1, T, zero, zero), CUBIC_PEAK_VELOCITY, CUBIC_PEAK_ACCELERATION),
+        (
+            PolynomialProfile(q0, q1, T, zero, zero, zero, zero),
+            QUINTIC_PEAK_VELOCITY,
+            QUINTIC_PEAK_ACCELERATION,
+        ),
+    ):
+        vel, acc = prof.peaks()
+        np.testing.assert_allclose(vel, kv * dq / T, rtol=1e-12)
+        np.testing.assert_allclose(acc, ka * dq / T**2, rtol=1e-12)
+        dense = np.linspace(0, T, 200_001)
+        np.testing.assert_allclose(np.abs(prof(dense, 1)).max(axis=0), vel, rtol=1e-9)
+    assert QUINTIC_PEAK_VELOCITY == 1.875 and round(QUINTIC_PEAK_ACCELERATION, 4) == 5.7735
+
+
+def test_exact_peaks_bound_dense_sampling_from_above() -> None:
+    rng = np.random.default_rng(RNG_SEED + 4)
+    for _ in range(100):
+        c = random_case(rng)
+        prof = PolynomialProfile(c["q0"], c["q1"], c["T"], c["v0"], c["v1"], c["a0"], c["a1"])
+        vel, acc = prof.peaks()
+        t = np.linspace(0, c["T"], 20_001)
+        dense_v, dense_a = np.abs(prof(t, 1)).max(axis=0), np.abs(prof(t, 2)).max(axis=0)
+        assert np.all(dense_v <= vel * (1 + 1e-12) + 1e-12)
+        assert np.all(dense_a <= acc * (1 + 1e-12) + 1e-12)
+        np.testing.assert_allclose(dense_v, vel, rtol=1e-6)
+        np.testing.assert_allclose(dense_a, acc, rtol=1e-6)
+
+
+def test_batched_durations_equal_one_at_a_time() -> None:
+    rng = np.random.default_rng(RNG_SEED + 5)
+    c = random_case(rng)
+    durations = np.geomspace(0.1, 10, 7)
+    args = (c["q0"], c["q1"])
+    bcs = (c["v0"], c["v1"], c["a0"], c["a1"])
+    vel, acc = PolynomialProfile(*args, durations[:, None], *bcs).peaks()
+    for i, T in enumerate(durations):
+        v1, a1 = PolynomialProfile(*args, T, *bcs).peaks()
+        np.testing.assert_allclose(vel[i], v1, rtol=1e-12)
+        np.testing.assert_allclose(acc[i], a1, rtol=1e-12)
+
+
+def test_unit_roots_agree_with_numpy() -> None:
+    rng = np.random.default_rng(RNG_SEED + 6)
+    coeffs = rng.normal(size=(4, 2000)) * rng.choice([1e-6, 1.0, 1e6], size=(4, 2000))
+    coeffs[0, :300] = 0.0  # some quadratics
+    roots = unit_roots(coeffs)
+    for k in range(coeffs.shape[1]):
+        c = coeffs[:, k]
+        expected = [
+            r.real for r in np.roots(c) if abs(r.imag) < 1e-12 and 1e-9 <= r.real <= 1 - 1e-9
+        ]
+        got = roots[:, k][~np.isnan(roots[:, k])]
+        for r in expected:
+            nearest = got[np.argmin(np.abs(got - r))]
+            residual = abs(polyval(c[:, None], np.array([nearest]))[0])
+            assert residual <= 1e-12 * (np.abs(c).sum()), (c, r, got)
+
+
+def test_abs_peak_on_unit_of_a_known_quartic() -> None:
+    # 30 s^2 (1 - s)^2 (the quintic's normalized velocity) peaks at 1.875 at s = 1/2.
+    c = np.array([30.0, -60.0, 30.0, 0.0, 0.0])[:, None]
+    assert abs(abs_peak_on_unit(c)[0] - 1.875) < 1e-14
+
+
+def test_linear_declares_its_velocity_steps() -> None:
+    q0, q1, T = np.array([0.0, 1.0]), np.array([2.0, -1.0]), 4.0
+    prof = LinearProfile(q0, q1, T)
+    t = np.linspace(0, T, 9)
+    v = prof(t, 1)
+    np.testing.assert_array_equal(v[0], 0.0)
+    np.testing.assert_array_equal(v[-1], 0.0)
+    np.testing.assert_allclose(v[1:-1], np.tile((q1 - q0) / T, (7, 1)))
+    np.testing.assert_array_equal(prof(t, 2), 0.0)
+    np.testing.assert_allclose(prof(t, 0), q0 + np.outer(t / T, q1 - q0))
+
+
+def test_trapezoid_is_synchronized_and_degrades_to_a_triangle() -> None:
+    q0, q1 = np.zeros(3), np.array([4.0, 0.5, -1.0])
+    amax = np.array([2.0, 2.0, 8.0])
+    T = 2.0 * np.sqrt(4.0 / 2.0)  # joint 0's triangle time
+    prof = TrapezoidalProfile(q0, q1, T, amax)
+    assert prof.ramp[0] == pytest.approx(T / 2)  # triangle: no cruise
+    assert np.all(prof.ramp[1:] < T / 2)  # the others cruise, slower
+    t = np.linspace(0, T, 10_001)
+    q = prof(t, 0)
+    np.testing.assert_allclose(q[-1], q1, atol=1e-12)
+    v = prof(t, 1)
+    np.testing.assert_allclose(np.abs(v).max(axis=0), prof.cruise, rtol=1e-3)
+    a = prof(t, 2)
+    np.testing.assert_allclose(np.abs(a).max(axis=0), amax)
+    # Cruise phase of joint 1: constant velocity.
+    mid = (t > prof.ramp[1] + 1e-9) & (t < T - prof.ramp[1] - 1e-9)
+    np.testing.assert_allclose(v[mid, 1], prof.cruise[1] * np.sign(q1[1]), rtol=1e-12)
+
+
+def test_trapezoid_raises_the_acceleration_a_short_duration_needs() -> None:
+    prof = TrapezoidalProfile(np.zeros(1), np.ones(1), 1.0, np.array([1.0]))
+    # 4 |dq| / T^2 = 4 > 1: reported, so the planner's limit check catches it.
+    assert prof.peaks()[1][0] == pytest.approx(4.0)

@@ -1,0 +1,81 @@
+"""The project's own files agree: the README shows the exact test command CI runs and the start
+command; the Dockerfile installs the project with ``pip install .`` and starts ``python -m service``
+on 0.0.0.0. Files are parsed, not grepped loosely."""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def readme_sections() -> dict[str, list[str]]:
+    """``## heading`` -> the lines of the fenced code blocks under it."""
+    sections: dict[str, list[str]] = {}
+    heading, fenced = "", False
+    for line in (ROOT / "README.md").read_text().splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+            continue
+        if fenced:
+            sections.setdefault(heading, []).append(line.strip())
+        elif line.startswith("## "):
+            heading = line[3:].strip()
+    return sections
+
+
+def ci_test_command() -> str:
+    """The command ``.ci/run`` runs after its "tests (README command)" marker."""
+    lines = (ROOT / ".ci" / "run").read_text().splitlines()
+    marker = next(i for i, line in enumerate(lines) if "tests (README command)" in line)
+    return next(line.strip() for line in lines[marker + 1 :] if line.strip())
+
+
+def dockerfile_instructions() -> list[tuple[str, str]]:
+    """(INSTRUCTION, arguments) with line continuations joined and comments dropped."""
+    text = (ROOT / "Dockerfile").read_text()
+    joined = re.sub(r"\\\n", " ", text)
+    out = []
+    for line in joined.splitlines():
+        line = line.strip()
+        if line and not line.startswith("#"):
+            word, _, rest = line.partition(" ")
+            out.append((word.upper(), rest.strip()))
+    return out
+
+
+def test_readme_shows_the_exact_ci_test_command() -> None:
+    command = ci_test_command()
+    assert "pytest" in command
+    run_tests = next(
+        lines for heading, lines in readme_sections().items() if "test" in heading.lower()
+    )
+    assert command in run_tests, f"README's test section lacks: {command}"
+
+
+def test_readme_shows_the_start_command() -> None:
+    start = next(
+        lines for heading, lines in readme_sections().items() if heading.lower().startswith("start")
+    )
+    commands = [c for line in start for c in line.split("&&")]
+    service = [shlex.split(c) for c in commands if "-m service" in c]
+    assert service, "README's start section has no `python -m service` command"
+    argv = service[0]
+    module = argv.index("-m")
+    assert argv[module + 1] == "service" and "--host" in argv and "--port" in argv
+    assert any("pip install ." in c for c in commands), "README start does not install the project"
+
+
+def test_dockerfile_installs_the_project_and_starts_the_service() -> None:
+    instructions = dockerfile_instructions()
+    runs = [shlex.split(args) for word, args in instructions if word == "RUN"]
+    installs = [argv for argv in runs if "pip" in argv and "install" in argv]
+    assert any("." in argv[argv.index("install") + 1 :] for argv in installs), runs
+    cmd = [args for word, args in instructions if word == "CMD"][-1]
+    argv = json.loads(cmd)  # exec form
+    assert argv[:5] == ["python", "-m", "service", "--host", "0.0.0.0"], argv
+    port = argv[argv.index("--port") + 1]
+    assert ("EXPOSE", port) in instructions
