@@ -1,0 +1,1253 @@
+/*
+ * Trajectory Service playground: plain JavaScript (ES2017), no build step.
+ *
+ * Calls only the public API of shared/API.md (/v1/robots, /v1/robots/{name}/fk,
+ * /v1/trajectories/{joint,spline,cartesian}, /v1/compare), like any other client, and draws what
+ * comes back with Plotly (served by the service from the Python plotly package).
+ *
+ * For the browser test and for people alike: <body data-state> is "busy" while a request runs and
+ * "done" after, and <body data-run> counts finished runs.
+ */
+'use strict';
+
+(function () {
+  // ---------------------------------------------------------------- constants and small helpers
+  const COLORS = ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b', '#e377c2',
+    '#7f7f7f', '#bcbd22', '#17becf'];
+  const METHODS = ['sampled', 'bounded_deviation', 'bounded_deviation_nlp', 'resolved_rate',
+    'resolved_rate_dls'];
+  const RATE_METHODS = ['resolved_rate', 'resolved_rate_dls'];
+  const DEFAULT_TOLERANCE = { position: 1e-3, orientation: 1e-2 };
+  const MAX_FK_POINTS = 100; // tool positions computed per trajectory (POST /fk per point)
+  const FK_CONCURRENCY = 6;
+  const FAIL_COLOR = '#d62728';
+  const WARN_COLOR = '#e08a00';
+
+  const $ = (id) => document.getElementById(id);
+  const state = {
+    robots: [],
+    robot: null, // GET /v1/robots/{name}
+    downloads: [], // [{label, filename, text}]
+    compareDownload: null,
+    runs: 0,
+    webgl: null,
+  };
+
+  function fmt(v, digits) {
+    if (v === null || v === undefined || Number.isNaN(v)) return '—';
+    if (typeof v !== 'number') return String(v);
+    const d = digits || 4;
+    if (v === 0) return '0';
+    const a = Math.abs(v);
+    if (a < 1e-3 || a >= 1e5) return v.toExponential(d - 2);
+    return String(Number(v.toPrecision(d)));
+  }
+  const round6 = (v) => Math.round(v * 1e6) / 1e6;
+  const clip = (v, lo, hi) => Math.min(hi, Math.max(lo, v));
+  const el = (tag, attrs, ...children) => {
+    const node = document.createElement(tag);
+    Object.entries(attrs || {}).forEach(([k, v]) => {
+      if (v === undefined || v === null || v === false) return;
+      if (k === 'text') node.textContent = v;
+      else if (k === 'class') node.className = v;
+      else if (k.startsWith('on')) node.addEventListener(k.slice(2), v);
+      else node.setAttribute(k, v === true ? '' : v);
+    });
+    children.flat().forEach((c) => {
+      if (c !== null && c !== undefined) node.append(c instanceof Node ? c : String(c));
+    });
+    return node;
+  };
+  const numberInput = (id, value, attrs) =>
+    el('input', Object.assign({ type: 'number', step: 'any', id: id,
+      value: value === undefined || value === null ? '' : round6(value) }, attrs || {}));
+  function num(id) {
+    const node = $(id);
+    if (!node || node.value.trim() === '') return undefined;
+    return Number(node.value); // NaN is sent as null: the service answers 422 naming the field
+  }
+  const checked = (name) => document.querySelector(`input[name="${name}"]:checked`).value;
+  const isPlanar = () => state.robot && state.robot.task_space === 'position_xy';
+
+  // ---------------------------------------------------------------- HTTP
+  async function api(method, path, body) {
+    const started = performance.now();
+    const init = { method: method, headers: { accept: 'application/json' } };
+    if (body !== undefined) {
+      init.headers['content-type'] = 'application/json';
+      init.body = JSON.stringify(body);
+    }
+    try {
+      const res = await fetch(path, init);
+      const text = await res.text();
+      let json = null;
+      try { json = JSON.parse(text); } catch (e) { json = null; }
+      return { ok: res.ok, status: res.status, json: json, text: text, path: path,
+        ms: performance.now() - started };
+    } catch (e) {
+      const problem = { title: 'Network error', code: 'network', status: 0,
+        detail: `the service did not answer ${method} ${path}: ${e.message}` };
+      return { ok: false, status: 0, json: problem, text: JSON.stringify(problem), path: path,
+        ms: performance.now() - started };
+    }
+  }
+
+  async function mapLimit(items, limit, fn) {
+    const out = new Array(items.length);
+    let next = 0;
+    async function worker() {
+      while (next < items.length) {
+        const i = next++;
+        out[i] = await fn(items[i], i);
+      }
+    }
+    await Promise.all(Array.from({ length: Math.min(limit, items.length) }, worker));
+    return out;
+  }
+
+  function problemOf(res) {
+    if (res.json && typeof res.json === 'object' && !Array.isArray(res.json)) return res.json;
+    return { title: 'HTTP error', status: res.status, detail: res.text.slice(0, 500) };
+  }
+
+  // ---------------------------------------------------------------- busy state, status, downloads
+  function busy(message) {
+    document.body.dataset.state = 'busy';
+    setStatus('busy', message);
+    document.querySelectorAll('.plan-form button').forEach((b) => { b.disabled = true; });
+  }
+  function done() {
+    state.runs += 1;
+    document.body.dataset.run = String(state.runs);
+    document.body.dataset.state = 'done';
+    document.querySelectorAll('.plan-form button').forEach((b) => { b.disabled = false; });
+  }
+  function pageError(e) {
+    // A bug of this page (not an answer of the service): say so instead of leaving a stale view.
+    console.error(e);
+    setStatus('error', `The page failed to draw the answer: ${e && e.message ? e.message : e}`);
+  }
+  function setStatus(kind, text) {
+    const node = $('status');
+    node.className = `status ${kind}`;
+    node.textContent = text;
+  }
+  function showRequest(method, path, body) {
+    $('request-json').textContent = `${method} ${path}\n${JSON.stringify(body, null, 2)}`;
+  }
+  function setDownloads(items) {
+    state.downloads = items;
+    const box = document.querySelector('.downloads');
+    box.textContent = '';
+    if (!items.length) {
+      box.append(el('button', { type: 'button', id: 'download-json', disabled: true }, 'Download JSON'));
+      return;
+    }
+    items.forEach((item, i) => {
+      box.append(el('button', {
+        type: 'button', id: i === 0 ? 'download-json' : `download-json-${i}`,
+        title: `save ${item.filename}`, onclick: () => saveText(item.filename, item.text),
+      }, item.label));
+    });
+  }
+  function saveText(filename, text) {
+    const url = URL.createObjectURL(new Blob([text], { type: 'application/json' }));
+    const a = el('a', { href: url, download: filename });
+    document.body.append(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 1000);
+  }
+  const robotName = () => (state.robot ? state.robot.name : 'robot');
+
+  // ---------------------------------------------------------------- views
+  function showView(name) {
+    document.querySelectorAll('#view-tabs button').forEach((b) => {
+      b.classList.toggle('active', b.dataset.view === name);
+    });
+    document.querySelectorAll('.view').forEach((v) => { v.hidden = v.dataset.view !== name; });
+    document.querySelectorAll(`#view-${name} .plot`).forEach((div) => {
+      if (div.data) Plotly.Plots.resize(div);
+    });
+  }
+  function showFormTab(name) {
+    document.querySelectorAll('#form-tabs button').forEach((b) => {
+      b.classList.toggle('active', b.dataset.tab === name);
+    });
+    document.querySelectorAll('.plan-form').forEach((f) => { f.hidden = f.dataset.tab !== name; });
+  }
+
+  // ---------------------------------------------------------------- plotting helpers
+  function plotConfig(filename) {
+    return { responsive: true, displaylogo: false,
+      toImageButtonOptions: { format: 'png', filename: filename, scale: 2 } };
+  }
+  function baseLayout(extra) {
+    return Object.assign({
+      margin: { l: 64, r: 16, t: 28, b: 44 },
+      font: { family: 'system-ui, -apple-system, "Segoe UI", sans-serif', size: 12 },
+      paper_bgcolor: '#fff', plot_bgcolor: '#fff',
+      hovermode: 'closest',
+      legend: { font: { size: 11 } },
+    }, extra || {});
+  }
+  function axis(title, extra) {
+    return Object.assign({ title: { text: title, standoff: 6 }, zeroline: false,
+      gridcolor: '#e6e8eb', linecolor: '#9aa0a6', showline: true, automargin: true }, extra || {});
+  }
+  function draw(div, traces, layout, filename) {
+    return Plotly.react($(div), traces, layout, plotConfig(filename || div));
+  }
+  function placeholder(div, message) {
+    return draw(div, [], baseLayout({
+      xaxis: { visible: false }, yaxis: { visible: false },
+      annotations: [{ text: message, showarrow: false, xref: 'paper', yref: 'paper', x: 0.5,
+        y: 0.5, font: { size: 13, color: '#6b7280' } }],
+    }));
+  }
+
+  /** Vertical lines and labels at each marked s: warnings (orange) and the failure (red). */
+  function sMarks(marks, yref) {
+    const shapes = [];
+    const annotations = [];
+    marks.forEach((m) => {
+      const color = m.color || (m.kind === 'failure' ? FAIL_COLOR : WARN_COLOR);
+      if (m.s1 !== undefined && m.s1 > m.s) {
+        shapes.push({ type: 'rect', xref: 'x', yref: 'paper', x0: m.s, x1: m.s1, y0: 0, y1: 1,
+          fillcolor: color, opacity: 0.08, line: { width: 0 }, layer: 'below' });
+      }
+      shapes.push({ type: 'line', xref: 'x', yref: 'paper', x0: m.s, x1: m.s, y0: 0, y1: 1,
+        line: { color: color, width: m.kind === 'failure' ? 2 : 1.5,
+          dash: m.kind === 'failure' ? 'solid' : 'dot' } });
+      // Inside the plot, below the mode bar; staggered so labels at nearby s stay readable.
+      annotations.push({ x: m.s, xref: 'x', y: 1 - 0.085 * (annotations.length % 5),
+        yref: yref || 'paper', yanchor: 'top', xanchor: m.s > 0.8 ? 'right' : 'left',
+        xshift: m.s > 0.8 ? -3 : 3, text: m.label, showarrow: false,
+        font: { size: 11, color: color }, hovertext: m.message, bgcolor: 'rgba(255,255,255,0.85)' });
+    });
+    return { shapes: shapes, annotations: annotations };
+  }
+
+  /** Warnings and the failure of a plan, each at its s (parsed from "s=0.123" in the message). */
+  function marksOf(diag, problem) {
+    const marks = [];
+    ((diag && diag.warnings) || []).forEach((w, i) => {
+      const found = Array.from(String(w).matchAll(/\bs\s*=\s*(-?\d*\.?\d+(?:e-?\d+)?)/g))
+        .map((m) => Number(m[1])).filter((v) => Number.isFinite(v));
+      const between = /between s\s*=\s*(-?\d*\.?\d+).*?and s\s*=\s*(-?\d*\.?\d+)/.exec(w);
+      const mark = { kind: 'warning', label: `W${i + 1}`, message: w, index: i + 1,
+        s: found.length ? found[0] : null };
+      if (between) mark.s1 = Number(between[2]);
+      marks.push(mark);
+    });
+    const failure = problem || (diag && diag.failure);
+    if (failure && failure.s !== undefined && failure.s !== null) {
+      marks.push({ kind: 'failure', label: `✖ ${failure.code || 'failed'}`, s: failure.s,
+        message: failure.detail || failure.title || '' });
+    }
+    return marks;
+  }
+
+  // ---------------------------------------------------------------- robots and forms
+  async function loadRobots() {
+    const res = await api('GET', '/v1/robots');
+    if (!res.ok) {
+      renderProblem(problemOf(res), 'GET /v1/robots');
+      return;
+    }
+    state.robots = res.json;
+    const select = $('robot');
+    select.textContent = '';
+    res.json.forEach((r) => select.append(el('option', { value: r.name }, r.name)));
+    const first = res.json.find((r) => r.name === 'ur5') || res.json[0];
+    if (first) {
+      select.value = first.name;
+      await selectRobot(first.name);
+    }
+  }
+
+  async function selectRobot(name) {
+    const res = await api('GET', `/v1/robots/${encodeURIComponent(name)}`);
+    if (!res.ok) {
+      renderProblem(problemOf(res), `GET /v1/robots/${name}`);
+      return;
+    }
+    state.robot = res.json;
+    $('robot').value = name;
+    const r = res.json;
+    $('robot-info').textContent = `${r.dof} joints · task space ${r.task_space} · ` +
+      `${r.base_frame} → ${r.tip_frame}`;
+    buildCartesianForm();
+    buildJointForm();
+    buildSplineForm();
+    // The pose fields start at FK(goal joints), so switching to a pose goal is one click.
+    const a = await fk(jointValues('c-goal'));
+    if (a) setPose(a.pose);
+  }
+
+  function offsetHome(delta) {
+    const r = state.robot;
+    return r.home.map((q, j) => {
+      const [lo, hi] = r.limits.position[j];
+      const margin = 0.05 * (hi - lo);
+      return clip(q + delta[j % delta.length], lo + margin, hi - margin);
+    });
+  }
+
+  function limitHint(j) {
+    const [lo, hi] = state.robot.limits.position[j];
+    return `[${fmt(lo, 3)}, ${fmt(hi, 3)}]`;
+  }
+
+  function buildCartesianForm(start, goal) {
+    const r = state.robot;
+    const table = $('c-joints');
+    table.textContent = '';
+    table.append(el('tr', {}, el('th', {}, 'joint'), el('th', {}, 'start'), el('th', {}, 'goal'),
+      el('th', { class: 'hint' }, 'limits')));
+    const q0 = start || r.home;
+    const q1 = goal || offsetHome([0.3, -0.2, 0.25]);
+    r.joint_names.forEach((name, j) => {
+      table.append(el('tr', {}, el('th', { title: name }, name),
+        el('td', {}, numberInput(`c-start-${j}`, q0[j])),
+        el('td', {}, numberInput(`c-goal-${j}`, q1[j])),
+        el('td', { class: 'hint' }, limitHint(j))));
+    });
+    const box = $('c-compare-methods');
+    if (!box.childElementCount) {
+      METHODS.forEach((m) => box.append(el('label', { class: 'inline' },
+        el('input', { type: 'checkbox', value: m, checked: true, name: 'c-compare-method' }), m)));
+    }
+  }
+
+  function buildJointForm() {
+    const r = state.robot;
+    const table = $('j-table');
+    table.textContent = '';
+    table.append(el('tr', {}, el('th', {}, 'joint'), el('th', {}, 'start'), el('th', {}, 'goal'),
+      el('th', {}, 'v max'), el('th', {}, 'a max')));
+    const goal = offsetHome([0.6, -0.4, 0.5]);
+    r.joint_names.forEach((name, j) => {
+      table.append(el('tr', {}, el('th', { title: `${name} ${limitHint(j)}` }, name),
+        el('td', {}, numberInput(`j-start-${j}`, r.home[j])),
+        el('td', {}, numberInput(`j-goal-${j}`, goal[j])),
+        el('td', {}, numberInput(`j-vmax-${j}`, r.limits.velocity[j], { class: 'limit' })),
+        el('td', {}, numberInput(`j-amax-${j}`, r.limits.acceleration[j], { class: 'limit' }))));
+    });
+    syncJointTiming();
+  }
+
+  function buildSplineForm(waypoints) {
+    const r = state.robot;
+    const wps = waypoints || [r.home, offsetHome([0.4, -0.3, 0.3]), offsetHome([0.8, 0.2, -0.3])];
+    const table = $('s-table');
+    table.textContent = '';
+    const head = el('tr', {}, el('th', {}, '#'), el('th', { class: 'time-col' }, 't [s]'));
+    r.joint_names.forEach((name) => head.append(el('th', { title: name }, name)));
+    table.append(head);
+    wps.forEach((wp, i) => addWaypointRow(wp, i * 1.5));
+    const limits = $('s-limits');
+    limits.textContent = '';
+    const lh = el('tr', {}, el('th', {}, ''));
+    r.joint_names.forEach((name) => lh.append(el('th', { title: name }, name)));
+    limits.append(lh);
+    [['v max', 'velocity', 's-vmax'], ['a max', 'acceleration', 's-amax']].forEach(([label, key, id]) => {
+      const row = el('tr', {}, el('th', {}, label));
+      r.limits[key].forEach((v, j) => row.append(el('td', {}, numberInput(`${id}-${j}`, v))));
+      limits.append(row);
+    });
+    syncSplineTimes();
+  }
+
+  function addWaypointRow(wp, t) {
+    const table = $('s-table');
+    const i = table.rows.length - 1;
+    const row = el('tr', { class: 'wp' }, el('th', {}, String(i + 1)),
+      el('td', { class: 'time-col' }, numberInput(`s-t-${i}`, t)));
+    wp.forEach((v, j) => row.append(el('td', {}, numberInput(`s-wp-${i}-${j}`, v))));
+    table.append(row);
+  }
+
+  function syncJointTiming() {
+    const limits = checked('j-timing') === 'limits';
+    $('j-duration-box').hidden = limits;
+    document.querySelectorAll('#j-table input.limit').forEach((n) => { n.disabled = !limits; });
+  }
+  function syncSplineTimes() {
+    const on = $('s-times').checked;
+    document.querySelectorAll('#s-table .time-col').forEach((n) => { n.hidden = !on; });
+  }
+  function syncCartesian() {
+    const pose = checked('c-goal-kind') === 'pose';
+    $('c-pose-box').hidden = !pose;
+    const duration = checked('c-timing') === 'duration';
+    $('c-speeds').hidden = duration;
+    $('c-duration-box').hidden = !duration;
+  }
+
+  // ---------------------------------------------------------------- requests from the forms
+  const jointValues = (prefix) => state.robot.joint_names.map((_, j) => num(`${prefix}-${j}`));
+
+  function cartesianRequest() {
+    const req = { robot: robotName(), start: { positions: jointValues('c-start') } };
+    if (checked('c-goal-kind') === 'pose') {
+      req.goal = { pose: {
+        position: ['c-px', 'c-py', 'c-pz'].map((id) => num(id) || 0),
+        orientation: ['c-qx', 'c-qy', 'c-qz', 'c-qw'].map((id) => num(id) || 0),
+      } };
+    } else {
+      req.goal = { positions: jointValues('c-goal') };
+    }
+    req.method = $('c-method').value;
+    req.tolerance = { position: num('c-tol-pos'), orientation: num('c-tol-ori') };
+    if (req.tolerance.position === undefined) delete req.tolerance.position;
+    if (req.tolerance.orientation === undefined) delete req.tolerance.orientation;
+    if (checked('c-timing') === 'duration') {
+      req.duration = num('c-duration');
+    } else {
+      const v = num('c-vlin');
+      const w = num('c-vang');
+      if (v !== undefined) req.max_linear_speed = v;
+      if (w !== undefined) req.max_angular_speed = w;
+    }
+    const period = num('c-period');
+    if (period !== undefined) req.sample_period = period;
+    const control = num('c-control');
+    if (control !== undefined && RATE_METHODS.includes(req.method)) req.control_period = control;
+    if ($('c-partial').checked) req.allow_partial = true;
+    return req;
+  }
+
+  function jointRequest() {
+    const req = {
+      robot: robotName(),
+      profile: $('j-profile').value,
+      start: { positions: jointValues('j-start') },
+      goal: { positions: jointValues('j-goal') },
+    };
+    if (checked('j-timing') === 'duration') req.duration = num('j-duration');
+    else req.limits = { velocity: jointValues('j-vmax'), acceleration: jointValues('j-amax') };
+    const period = num('j-period');
+    if (period !== undefined) req.sample_period = period;
+    return req;
+  }
+
+  function splineRequest() {
+    const rows = $('s-table').rows.length - 1;
+    const req = {
+      robot: robotName(),
+      waypoints: Array.from({ length: rows }, (_, i) => jointValues(`s-wp-${i}`)),
+      boundary: $('s-boundary').value,
+      limits: { velocity: jointValues('s-vmax'), acceleration: jointValues('s-amax') },
+    };
+    if ($('s-times').checked) req.times = Array.from({ length: rows }, (_, i) => num(`s-t-${i}`));
+    const period = num('s-period');
+    if (period !== undefined) req.sample_period = period;
+    return req;
+  }
+
+  // ---------------------------------------------------------------- problem, summary, warnings
+  function renderProblem(problem, where, note) {
+    const box = $('problem');
+    box.textContent = '';
+    if (!problem) {
+      box.hidden = true;
+      return;
+    }
+    box.hidden = false;
+    box.className = note && note.partial ? 'problem partial' : 'problem';
+    const s = problem.s;
+    const head = el('div', { class: 'problem-head' },
+      el('span', { class: 'code', id: 'problem-code' }, problem.code || 'error'),
+      el('strong', {}, problem.title || 'Request failed'),
+      problem.status ? el('span', { class: 'muted' }, `HTTP ${problem.status}`) : null,
+      where ? el('span', { class: 'muted' }, where) : null);
+    box.append(head);
+    box.append(el('p', { class: 'detail', id: 'problem-detail' }, problem.detail || ''));
+    if (s !== undefined && s !== null) {
+      box.append(el('p', { class: 'where', id: 'problem-s' },
+        `Where on the line: s = ${fmt(s, 4)} (${(100 * s).toFixed(1)} % of the way from the start)`));
+    }
+    const extras = Object.entries(problem).filter(([k]) =>
+      !['type', 'title', 'status', 'detail', 'code', 's', 'errors'].includes(k));
+    if (extras.length) {
+      box.append(el('p', { class: 'muted' },
+        extras.map(([k, v]) => `${k}: ${typeof v === 'number' ? fmt(v, 5) : JSON.stringify(v)}`)
+          .join(' · ')));
+    }
+    if (Array.isArray(problem.errors) && problem.errors.length) {
+      box.append(el('ul', { class: 'errors' }, problem.errors.map((e) =>
+        el('li', {}, el('code', {}, (e.loc || []).join('.')), ` ${e.msg || ''}`))));
+    }
+    if (note && note.text) box.append(el('p', { class: 'note' }, note.text));
+  }
+
+  function renderSummary(body, extra) {
+    const box = $('summary');
+    box.textContent = '';
+    if (!body) {
+      box.hidden = true;
+      return;
+    }
+    const d = body.diagnostics || {};
+    const r = state.robot;
+    const items = [
+      ['method', d.method],
+      ['duration', d.duration !== undefined ? `${fmt(d.duration)} s` : undefined],
+      ['points', body.points ? body.points.length : undefined],
+      ['compute', d.compute_time_ms !== undefined ? `${fmt(d.compute_time_ms, 3)} ms` : undefined],
+      ['fraction', d.fraction],
+      ['max position deviation', d.max_position_deviation !== undefined && d.max_position_deviation !== null ? `${fmt(d.max_position_deviation, 3)} m` : undefined],
+      ['max orientation deviation', d.max_orientation_deviation !== undefined && d.max_orientation_deviation !== null && !isPlanar() ? `${fmt(d.max_orientation_deviation, 3)} rad` : undefined],
+      ['min singular value', d.min_singular_value],
+      ['knots', d.knot_count],
+    ];
+    if (r && Array.isArray(d.peak_velocity) && d.peak_velocity.length === r.dof) {
+      const vr = Math.max(...d.peak_velocity.map((v, j) => Math.abs(v) / r.limits.velocity[j]));
+      const ar = Math.max(...d.peak_acceleration.map((v, j) => Math.abs(v) / r.limits.acceleration[j]));
+      items.push(['peak |v| / limit', `${(100 * vr).toFixed(1)} %`]);
+      items.push(['peak |a| / limit', `${(100 * ar).toFixed(1)} %`]);
+    }
+    (extra || []).forEach((e) => items.push(e));
+    items.filter(([, v]) => v !== undefined && v !== null).forEach(([k, v]) => {
+      box.append(el('div', { class: 'kv' }, el('span', { class: 'k' }, k),
+        el('span', { class: 'v' }, typeof v === 'number' ? fmt(v) : String(v))));
+    });
+    const rest = Object.assign({}, d);
+    delete rest.deviation_profile;
+    delete rest.singular_value_profile;
+    box.append(el('details', { class: 'all-diag' }, el('summary', {}, 'all diagnostics'),
+      el('pre', {}, JSON.stringify(rest, null, 2))));
+    box.hidden = false;
+  }
+
+  function renderWarnings(marks) {
+    const list = $('warnings');
+    list.textContent = '';
+    const warns = marks.filter((m) => m.kind === 'warning');
+    warns.forEach((m) => list.append(el('li', {},
+      el('span', { class: 'tag' }, m.label),
+      m.s !== null ? el('span', { class: 'at' }, `s = ${fmt(m.s, 3)}`) : null,
+      ` ${m.message}`)));
+    list.hidden = !warns.length;
+  }
+
+  // ---------------------------------------------------------------- joint plots
+  const QUANTITIES = [
+    { key: 'positions', title: 'position', unit: 'rad' },
+    { key: 'velocities', title: 'velocity', unit: 'rad/s' },
+    { key: 'accelerations', title: 'acceleration', unit: 'rad/s²' },
+  ];
+  let lastJoints = null; // arguments of the last renderJoints, to redraw on the zoom toggle
+
+  /** [lo, hi] of the finite numbers in ``values``, or null. */
+  function extent(values) {
+    let lo = Infinity;
+    let hi = -Infinity;
+    values.forEach((v) => {
+      if (v !== null && Number.isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    });
+    return lo <= hi ? [lo, hi] : null;
+  }
+  function padded(range) {
+    const span = range[1] - range[0] || Math.max(1e-3, Math.abs(range[0]) * 0.1);
+    return [range[0] - 0.08 * span, range[1] + 0.08 * span];
+  }
+
+  /**
+   * Position, velocity and acceleration of every joint against time, one row each (one figure, so a
+   * click on a joint in the legend hides it in all three), the limits as dashed lines in the
+   * joint's colour, and the knots or waypoints (markers at their time and position).
+   *   limits: {position: [[lo, hi]], velocity: [..], acceleration: [..]}
+   *   knots: [{t, positions, label, kind}] or null
+   */
+  function renderJoints(body, limits, knots, emptyMessage) {
+    lastJoints = [body, limits, knots, emptyMessage];
+    if (!body || !body.points || !body.points.length) {
+      placeholder('plot-joints', emptyMessage || 'No trajectory');
+      return;
+    }
+    const t = body.points.map((p) => p.time_from_start);
+    const names = body.joint_names;
+    const t0 = t[0];
+    const t1 = t[t.length - 1];
+    const positionLimitsInView = $('j-zoom-limits').checked;
+    const traces = [];
+    const layout = baseLayout({
+      grid: { rows: 3, columns: 1, pattern: 'coupled', roworder: 'top to bottom', ygap: 0.12 },
+      xaxis: axis('time [s]'),
+      hovermode: 'x unified',
+      legend: { font: { size: 11 }, tracegroupgap: 2 },
+      margin: { l: 70, r: 16, t: 30, b: 44 },
+      shapes: [],
+    });
+    QUANTITIES.forEach((q, row) => {
+      const ax = row === 0 ? '' : String(row + 1);
+      const data = [];
+      const lims = [];
+      names.forEach((name, j) => {
+        const color = COLORS[j % COLORS.length];
+        const y = body.points.map((p) => p[q.key][j]);
+        data.push(...y);
+        traces.push({ type: 'scatter', mode: 'lines', name: name, legendgroup: name,
+          showlegend: row === 0, x: t, y: y, xaxis: 'x', yaxis: `y${ax}`,
+          line: { color: color, width: 2 }, meta: { role: 'joint', quantity: q.title },
+          hovertemplate: `%{y:.4g} ${q.unit}` });
+        let lo;
+        let hi;
+        if (q.key === 'positions') [lo, hi] = limits.position[j];
+        else {
+          hi = (q.key === 'velocities' ? limits.velocity : limits.acceleration)[j];
+          lo = -hi;
+        }
+        lims.push(lo, hi);
+        traces.push({ type: 'scatter', mode: 'lines', name: `${name} limits`, legendgroup: name,
+          showlegend: false, x: [t0, t1, null, t0, t1], y: [hi, hi, null, lo, lo],
+          xaxis: 'x', yaxis: `y${ax}`, line: { color: color, width: 1, dash: 'dash' },
+          opacity: 0.75, meta: { role: 'limit', quantity: q.title }, hoverinfo: 'skip' });
+      });
+      if (knots && knots.length && q.key === 'positions') {
+        const x = [];
+        const y = [];
+        const colors = [];
+        const text = [];
+        knots.forEach((k) => k.positions.forEach((v, j) => {
+          x.push(k.t); y.push(v); colors.push(COLORS[j % COLORS.length]);
+          text.push(`${k.label} · ${names[j]}`);
+        }));
+        traces.push({ type: 'scatter', mode: 'markers', name: knots[0].kind || 'knots', x: x, y: y,
+          xaxis: 'x', yaxis: 'y', text: text, meta: { role: 'knots' },
+          marker: { symbol: 'diamond', size: 8, color: colors, line: { color: '#111', width: 1 } },
+          hovertemplate: '%{text}: %{y:.4g} rad' });
+      }
+      const inView = q.key !== 'positions' || positionLimitsInView;
+      const range = extent(inView ? data.concat(lims) : data);
+      layout[`yaxis${ax}`] = axis(`${q.title} [${q.unit}]`, range ? { range: padded(range) } : {});
+      if (knots && knots.length) {
+        knots.forEach((k) => layout.shapes.push({ type: 'line', xref: 'x', yref: `y${ax} domain`,
+          x0: k.t, x1: k.t, y0: 0, y1: 1, line: { color: '#9aa0a6', width: 1, dash: 'dot' },
+          layer: 'below' }));
+      }
+      if (q.key === 'positions') {
+        const [lo, hi] = extent(data) || [0, 0];
+        const hidden = lims.filter((v) => v < lo || v > hi).length;
+        $('j-limits-note').textContent = !inView && hidden
+          ? `${hidden} of ${lims.length} position limits lie outside the view` : '';
+      }
+    });
+    draw('plot-joints', traces, layout, `${robotName()}-joints`);
+  }
+
+  // ---------------------------------------------------------------- Cartesian geometry
+  async function fk(positions) {
+    const res = await api('POST', `/v1/robots/${encodeURIComponent(robotName())}/fk`,
+      { positions: positions });
+    return res.ok ? res.json : null;
+  }
+
+  /** The ideal line: FK(start) to the goal pose (FK(goal.positions) for a joint goal). */
+  async function lineOf(req) {
+    const [a, b] = await Promise.all([
+      fk(req.start.positions),
+      req.goal.positions ? fk(req.goal.positions) : Promise.resolve({ pose: req.goal.pose }),
+    ]);
+    if (!a || !b) return null;
+    const p0 = a.pose.position;
+    const p1 = b.pose.position;
+    return { p0: p0, p1: p1, at: (s) => p0.map((v, i) => v + s * (p1[i] - v)) };
+  }
+
+  function subsample(n, most) {
+    if (n <= most) return Array.from({ length: n }, (_, i) => i);
+    const idx = new Set();
+    for (let k = 0; k < most; k++) idx.add(Math.round((k * (n - 1)) / (most - 1)));
+    return Array.from(idx).sort((a, b) => a - b);
+  }
+
+  /** s at each time, from the deviation profile's (time_from_start, s) pairs. */
+  function sOfTime(profile) {
+    if (!profile || !profile.time_from_start || profile.time_from_start.length < 2) return null;
+    const ts = profile.time_from_start;
+    const ss = profile.s;
+    return (t) => {
+      if (t <= ts[0]) return ss[0];
+      if (t >= ts[ts.length - 1]) return ss[ss.length - 1];
+      let lo = 0;
+      let hi = ts.length - 1;
+      while (hi - lo > 1) {
+        const mid = (lo + hi) >> 1;
+        if (ts[mid] <= t) lo = mid; else hi = mid;
+      }
+      const u = (t - ts[lo]) / (ts[hi] - ts[lo] || 1);
+      return ss[lo] + u * (ss[hi] - ss[lo]);
+    };
+  }
+
+  /** Tool positions of at most MAX_FK_POINTS returned points (POST /fk per point, a few at a time). */
+  async function toolPath(body, line) {
+    const points = body.points;
+    const idx = subsample(points.length, MAX_FK_POINTS);
+    const poses = await mapLimit(idx, FK_CONCURRENCY, (i) => fk(points[i].positions));
+    const diag = body.diagnostics || {};
+    const sAt = sOfTime(diag.deviation_profile);
+    const out = { p: [], t: [], s: [], sigma: [] };
+    idx.forEach((i, k) => {
+      if (!poses[k]) return;
+      const p = poses[k].pose.position;
+      const t = points[i].time_from_start;
+      let s = sAt ? sAt(t) : null;
+      if (s === null && line) {
+        const d = line.p1.map((v, c) => v - line.p0[c]);
+        const dd = d.reduce((acc, v) => acc + v * v, 0);
+        s = dd > 1e-18 ? d.reduce((acc, v, c) => acc + v * (p[c] - line.p0[c]), 0) / dd : null;
+      }
+      out.p.push(p); out.t.push(t); out.s.push(s); out.sigma.push(poses[k].min_singular_value);
+    });
+    return out;
+  }
+
+  function webglAvailable() {
+    if (state.webgl === null) {
+      try {
+        const c = document.createElement('canvas');
+        state.webgl = !!(window.WebGLRenderingContext &&
+          (c.getContext('webgl') || c.getContext('experimental-webgl')));
+      } catch (e) {
+        state.webgl = false;
+      }
+    }
+    return state.webgl;
+  }
+
+  // ---------------------------------------------------------------- Cartesian plots
+  function renderPath(line, tool, marks, knotsTool) {
+    const planar = isPlanar();
+    if (!line) {
+      placeholder('plot-path', 'No line: the start (or goal) joints were refused');
+      return;
+    }
+    const dims = planar ? 2 : 3;
+    const comps = (pts) => Array.from({ length: dims }, (_, c) => pts.map((p) => p[c]));
+    const traces = [];
+    const add = (name, pts, style) => {
+      const [x, y, z] = comps(pts);
+      const trace = Object.assign({ name: name, x: x, y: y }, style);
+      if (dims === 3) { trace.type = 'scatter3d'; trace.z = z; } else trace.type = 'scatter';
+      traces.push(trace);
+    };
+    add('ideal line', [line.p0, line.p1], { mode: 'lines', opacity: 0.45,
+      line: { color: '#6b7280', width: dims === 3 ? 12 : 8 }, hoverinfo: 'skip' });
+    if (tool && tool.p.length) {
+      add('tool path', tool.p, { mode: 'lines+markers', line: { color: COLORS[0], width: 2 },
+        marker: { size: dims === 3 ? 2.5 : 4, color: COLORS[0] },
+        text: tool.s.map((s, k) => `t=${fmt(tool.t[k], 4)} s, s=${s === null ? '?' : fmt(s, 3)}`),
+        hovertemplate: '%{text}<extra>tool</extra>' });
+    }
+    if (knotsTool && knotsTool.length) {
+      add('knots', knotsTool, { mode: 'markers',
+        marker: { symbol: 'diamond', size: dims === 3 ? 4 : 8, color: '#111' } });
+    }
+    add('start', [line.p0], { mode: 'markers', marker: { size: dims === 3 ? 6 : 11, color: COLORS[2] } });
+    add('goal', [line.p1], { mode: 'markers', marker: { size: dims === 3 ? 6 : 11, color: '#111',
+      symbol: dims === 3 ? 'square' : 'star' } });
+    marks.filter((m) => m.s !== null).forEach((m) => {
+      add(m.kind === 'failure' ? `${m.label} at s=${fmt(m.s, 3)}` : `${m.label} at s=${fmt(m.s, 3)}`,
+        [line.at(m.s)], { mode: 'markers', text: [m.message],
+          marker: { size: dims === 3 ? 7 : 13, symbol: m.kind === 'failure' ? 'x' : (dims === 3 ? 'diamond-open' : 'triangle-up'),
+            color: m.kind === 'failure' ? FAIL_COLOR : WARN_COLOR },
+          hovertemplate: '%{text}<extra></extra>' });
+    });
+    const legend = { orientation: 'h', y: -0.02, yanchor: 'top', font: { size: 11 } };
+    if (dims === 2) {
+      draw('plot-path', traces, baseLayout({
+        xaxis: axis('x [m]'), yaxis: axis('y [m]', { scaleanchor: 'x', scaleratio: 1 }),
+        legend: Object.assign({}, legend, { y: -0.1 }), margin: { l: 64, r: 16, t: 16, b: 40 },
+      }), `${robotName()}-tool-path`);
+      return;
+    }
+    if (!webglAvailable()) {
+      // No WebGL (some headless or remote browsers): top and side views instead of the 3D scene.
+      const flat = [];
+      traces.forEach((tr) => {
+        const base = Object.assign({}, tr, { type: 'scatter' });
+        delete base.z;
+        flat.push(Object.assign({}, base, { xaxis: 'x', yaxis: 'y' }));
+        flat.push(Object.assign({}, base, { y: tr.z, xaxis: 'x2', yaxis: 'y2', showlegend: false }));
+      });
+      draw('plot-path', flat, baseLayout({
+        grid: { rows: 1, columns: 2, pattern: 'independent' },
+        xaxis: axis('x [m] (top view)'), yaxis: axis('y [m]', { scaleanchor: 'x' }),
+        xaxis2: axis('x [m] (side view)'), yaxis2: axis('z [m]', { scaleanchor: 'x2' }),
+        legend: Object.assign({}, legend, { y: -0.1 }), margin: { l: 64, r: 16, t: 16, b: 40 },
+      }), `${robotName()}-tool-path`);
+      return;
+    }
+    // One scale on every axis (a cube around the motion), so the path is not distorted.
+    const all = [line.p0, line.p1].concat(tool ? tool.p : []);
+    const lo = [0, 1, 2].map((c) => Math.min(...all.map((p) => p[c])));
+    const hi = [0, 1, 2].map((c) => Math.max(...all.map((p) => p[c])));
+    const half = 0.6 * Math.max(1e-3, ...hi.map((v, c) => v - lo[c]));
+    const range = (c) => [(lo[c] + hi[c]) / 2 - half, (lo[c] + hi[c]) / 2 + half];
+    draw('plot-path', traces, baseLayout({
+      scene: { aspectmode: 'cube', xaxis: { title: { text: 'x [m]' }, range: range(0) },
+        yaxis: { title: { text: 'y [m]' }, range: range(1) },
+        zaxis: { title: { text: 'z [m]' }, range: range(2) },
+        camera: { eye: { x: 1.5, y: -1.5, z: 1.1 } } },
+      legend: legend, margin: { l: 0, r: 0, t: 0, b: 40 },
+    }), `${robotName()}-tool-path`);
+  }
+
+  let lastDeviation = null; // arguments of the last renderDeviation, to redraw on the log toggle
+
+  function renderDeviation(diag, tolerance, marks, emptyMessage) {
+    lastDeviation = [diag, tolerance, marks, emptyMessage];
+    const log = $('dev-log').checked;
+    const yType = log ? { type: 'log', exponentformat: 'power' } : { rangemode: 'tozero', exponentformat: 'e' };
+    const planar = isPlanar();
+    const prof = diag && diag.deviation_profile;
+    const traces = [];
+    if (prof && prof.s && prof.s.length) {
+      traces.push({ type: 'scatter', mode: 'lines', name: 'position deviation', x: prof.s,
+        y: prof.position, line: { color: COLORS[0], width: 2 }, xaxis: 'x', yaxis: 'y',
+        hovertemplate: '%{y:.3g} m<extra>s=%{x:.4f}</extra>' });
+      if (!planar) {
+        traces.push({ type: 'scatter', mode: 'lines', name: 'orientation deviation', x: prof.s,
+          y: prof.orientation, line: { color: COLORS[1], width: 2 }, xaxis: 'x', yaxis: 'y2',
+          hovertemplate: '%{y:.3g} rad<extra>s=%{x:.4f}</extra>' });
+      }
+    }
+    traces.push({ type: 'scatter', mode: 'lines', name: `position tolerance ${fmt(tolerance.position)} m`,
+      x: [0, 1], y: [tolerance.position, tolerance.position], xaxis: 'x', yaxis: 'y',
+      line: { color: FAIL_COLOR, width: 1.5, dash: 'dash' }, meta: { role: 'tolerance' } });
+    if (!planar) {
+      traces.push({ type: 'scatter', mode: 'lines',
+        name: `orientation tolerance ${fmt(tolerance.orientation)} rad`, x: [0, 1],
+        y: [tolerance.orientation, tolerance.orientation], xaxis: 'x', yaxis: 'y2',
+        line: { color: '#a855f7', width: 1.5, dash: 'dash' }, meta: { role: 'tolerance' } });
+    }
+    const m = sMarks(marks.filter((k) => k.s !== null));
+    if (!(prof && prof.s && prof.s.length) && emptyMessage) {
+      m.annotations.push({ text: emptyMessage, showarrow: false, xref: 'paper', yref: 'paper',
+        x: 0.5, y: 0.5, font: { size: 12, color: '#6b7280' } });
+    }
+    const layout = baseLayout({
+      xaxis: axis('s (path parameter)', { range: [-0.02, 1.02] }),
+      yaxis: axis('position [m]', Object.assign({ domain: planar ? [0, 1] : [0.54, 1],
+        title: { text: 'position [m]', standoff: 4, font: { size: 11 } } }, yType)),
+      shapes: m.shapes, annotations: m.annotations,
+      legend: { orientation: 'h', y: -0.2, yanchor: 'top', font: { size: 11 } },
+      margin: { l: 70, r: 16, t: 22, b: 40 },
+    });
+    if (!planar) {
+      layout.yaxis2 = axis('orientation [rad]', Object.assign({ domain: [0, 0.44], anchor: 'x',
+        title: { text: 'orientation [rad]', standoff: 4, font: { size: 11 } } }, yType));
+      layout.xaxis.anchor = 'y2';
+    }
+    draw('plot-deviation', traces, layout, `${robotName()}-deviation`);
+  }
+
+  function renderSigma(diag, tool, marks, emptyMessage) {
+    const prof = diag && diag.singular_value_profile;
+    const sAt = sOfTime(diag && diag.deviation_profile);
+    let x = null;
+    let y = null;
+    if (prof && prof.value && prof.value.length && sAt) {
+      x = prof.time_from_start.map(sAt);
+      y = prof.value;
+    } else if (tool && tool.s.length && tool.s.every((s) => s !== null)) {
+      x = tool.s; // fallback: the FK answers' own smallest singular values
+      y = tool.sigma;
+    }
+    const traces = [];
+    if (x) {
+      traces.push({ type: 'scatter', mode: 'lines', name: 'smallest singular value', x: x, y: y,
+        line: { color: COLORS[4], width: 2 }, hovertemplate: '%{y:.4g}<extra>s=%{x:.4f}</extra>' });
+    }
+    const m = sMarks(marks.filter((k) => k.s !== null));
+    if (!x && emptyMessage) {
+      m.annotations.push({ text: emptyMessage, showarrow: false, xref: 'paper', yref: 'paper',
+        x: 0.5, y: 0.5, font: { size: 12, color: '#6b7280' } });
+    }
+    draw('plot-sigma', traces, baseLayout({
+      xaxis: axis('s (path parameter)', { range: [-0.02, 1.02] }),
+      yaxis: axis('σ min of the task Jacobian', { rangemode: 'tozero' }),
+      shapes: m.shapes, annotations: m.annotations, showlegend: false,
+      margin: { l: 70, r: 16, t: 22, b: 44 },
+    }), `${robotName()}-singular-value`);
+  }
+
+  // ---------------------------------------------------------------- runs
+  function robotLimits() {
+    return state.robot.limits;
+  }
+
+  async function runCartesian(override) {
+    const req = Object.assign(cartesianRequest(), override || {});
+    const path = '/v1/trajectories/cartesian';
+    showRequest('POST', path, req);
+    busy(`Planning ${req.method} …`);
+    showView('cartesian');
+    try {
+      const res = await api('POST', path, req);
+      const base = `${robotName()}-${req.method}`;
+      const downloads = [{ label: 'Download JSON', filename: `${base}.json`, text: res.text }];
+      let body = res.ok ? res.json : null;
+      const problem = res.ok ? null : problemOf(res);
+      let prefixNote = null;
+      if (problem && problem.s !== undefined && problem.s !== null && problem.s > 0 &&
+          $('c-prefix').checked && !req.allow_partial) {
+        // Draw what could be planned: the same request with allow_partial (public API).
+        const partial = await api('POST', path, Object.assign({}, req, { allow_partial: true }));
+        if (partial.ok && partial.json.points && partial.json.points.length) {
+          body = partial.json;
+          downloads.push({ label: 'Download prefix JSON', filename: `${base}-prefix.json`,
+            text: partial.text });
+          prefixNote = { text: `Drawn below: the planned prefix up to s = ` +
+            `${fmt(partial.json.diagnostics.fraction, 4)} (the same request with allow_partial).` };
+        }
+      }
+      setDownloads(downloads);
+      const diag = body ? body.diagnostics : null;
+      const failure = problem || (diag && diag.failure ? Object.assign({ title: 'Partial plan' }, diag.failure) : null);
+      const marks = marksOf(diag, failure);
+      if (problem) renderProblem(problem, `POST ${path}`, prefixNote);
+      else if (failure) {
+        renderProblem(failure, 'allow_partial: the planned prefix is drawn', { partial: true });
+      } else renderProblem(null);
+      setStatus(res.ok ? 'ok' : 'error', res.ok
+        ? `POST ${path} → ${res.status} in ${Math.round(res.ms)} ms · ${body.points.length} points over ${fmt(diag.duration)} s`
+        : `POST ${path} → ${res.status} ${problem.code || ''} in ${Math.round(res.ms)} ms`);
+      renderSummary(body);
+      renderWarnings(marks);
+
+      const line = await lineOf(req);
+      const tool = body ? await toolPath(body, line) : null;
+      let knotsTool = null;
+      if (body && body.knots && body.knots.length) {
+        const idx = subsample(body.knots.length, MAX_FK_POINTS);
+        const poses = await mapLimit(idx, FK_CONCURRENCY, (i) => fk(body.knots[i].positions));
+        knotsTool = poses.filter(Boolean).map((p) => p.pose.position);
+      }
+      const tolerance = Object.assign({}, DEFAULT_TOLERANCE, req.tolerance || {});
+      const empty = problem ? `no trajectory: ${problem.code || 'error'}` : 'no deviation data';
+      renderPath(line, tool, marks, knotsTool);
+      renderDeviation(diag, tolerance, marks, empty);
+      renderSigma(diag, tool, marks, empty);
+      const knots = body && body.knots ? body.knots.map((k, i) => ({ t: k.time_from_start,
+        positions: k.positions, label: `knot ${i + 1} (s=${fmt(k.s, 3)})`, kind: 'knots' })) : null;
+      renderJoints(body, robotLimits(), knots,
+        problem ? `No trajectory: ${problem.code || 'error'} — ${problem.detail || ''}` : 'No trajectory');
+    } catch (e) {
+      pageError(e);
+    } finally {
+      done();
+    }
+  }
+
+  async function runJoint(kind) {
+    const isSpline = kind === 'spline';
+    const req = isSpline ? splineRequest() : jointRequest();
+    const path = isSpline ? '/v1/trajectories/spline' : '/v1/trajectories/joint';
+    showRequest('POST', path, req);
+    busy(`Planning ${isSpline ? 'spline' : req.profile} …`);
+    showView('joints');
+    try {
+      const res = await api('POST', path, req);
+      const name = `${robotName()}-${isSpline ? `spline-${req.boundary}` : req.profile}`;
+      setDownloads([{ label: 'Download JSON', filename: `${name}.json`, text: res.text }]);
+      const body = res.ok ? res.json : null;
+      const problem = res.ok ? null : problemOf(res);
+      renderProblem(problem, `POST ${path}`);
+      setStatus(res.ok ? 'ok' : 'error', res.ok
+        ? `POST ${path} → ${res.status} in ${Math.round(res.ms)} ms · ${body.points.length} points over ${fmt(body.diagnostics.duration)} s`
+        : `POST ${path} → ${res.status} ${problem.code || ''} in ${Math.round(res.ms)} ms`);
+      renderSummary(body);
+      renderWarnings(marksOf(body ? body.diagnostics : null, null));
+      const limits = Object.assign({}, robotLimits());
+      if (req.limits) {
+        limits.velocity = req.limits.velocity.map((v, j) => (Number.isFinite(v) ? v : limits.velocity[j]));
+        limits.acceleration = req.limits.acceleration.map((v, j) => (Number.isFinite(v) ? v : limits.acceleration[j]));
+      }
+      let knots = null;
+      if (body) {
+        const times = req.times || (body.diagnostics && body.diagnostics.knot_times);
+        const wps = isSpline ? req.waypoints : [req.start.positions, req.goal.positions];
+        const ts = times || (isSpline ? null : [0, body.diagnostics.duration]);
+        if (ts && ts.length === wps.length) {
+          knots = wps.map((q, i) => ({ t: ts[i], positions: q, label: `waypoint ${i + 1}`,
+            kind: isSpline ? 'waypoints' : 'start / goal' }));
+        }
+      }
+      renderJoints(body, limits, knots,
+        problem ? `No trajectory: ${problem.code || 'error'} — ${problem.detail || ''}` : null);
+      ['plot-path', 'plot-deviation', 'plot-sigma'].forEach((d) =>
+        placeholder(d, 'Plan a Cartesian line to see the tool path, deviation and σ'));
+    } catch (e) {
+      pageError(e);
+    } finally {
+      done();
+    }
+  }
+
+  // ---------------------------------------------------------------- compare
+  async function runCompare() {
+    const task = cartesianRequest();
+    delete task.method;
+    const control = num('c-control');
+    if (control !== undefined) task.control_period = control; // used by the rate methods
+    const methods = Array.from(document.querySelectorAll('input[name="c-compare-method"]:checked'))
+      .map((n) => n.value);
+    const body = { task: task, methods: methods.length ? methods : METHODS };
+    const path = '/v1/compare';
+    showRequest('POST', path, body);
+    busy(`Comparing ${body.methods.length} methods …`);
+    showView('compare');
+    try {
+      const res = await api('POST', path, body);
+      const filename = `${robotName()}-compare.json`;
+      setDownloads([{ label: 'Download JSON', filename: filename, text: res.text }]);
+      state.compareDownload = { filename: filename, text: res.text };
+      $('download-compare').disabled = false;
+      renderSummary(null);
+      renderWarnings([]);
+      const tolerance = Object.assign({}, DEFAULT_TOLERANCE, task.tolerance || {});
+      if (!res.ok) {
+        const problem = problemOf(res);
+        renderProblem(problem, `POST ${path}`);
+        setStatus('error', `POST ${path} → ${res.status} ${problem.code || ''}`);
+        renderCompareTable([]);
+        renderCompareplot([], tolerance, `compare failed: ${problem.code || res.status}`);
+        return;
+      }
+      renderProblem(null);
+      const results = res.json.results || [];
+      const failed = results.filter((r) => !r.ok).length;
+      setStatus(failed ? 'warn' : 'ok', `POST ${path} → ${res.status} in ${Math.round(res.ms)} ms · ` +
+        `${results.length - failed} of ${results.length} methods planned the line`);
+      renderCompareTable(results);
+      renderCompareplot(results, tolerance);
+    } catch (e) {
+      pageError(e);
+    } finally {
+      done();
+    }
+  }
+
+  function renderCompareTable(results) {
+    const table = $('compare-table');
+    table.textContent = '';
+    const planar = isPlanar();
+    const cols = ['method', 'result', 'duration [s]', 'fraction', 'max position dev. [m]',
+      planar ? null : 'max orientation dev. [rad]', 'min σ', 'knots', 'compute [ms]', 'warnings']
+      .filter(Boolean);
+    table.append(el('thead', {}, el('tr', {}, cols.map((c) => el('th', {}, c)))));
+    const tbody = el('tbody');
+    results.forEach((r, i) => {
+      const d = r.diagnostics || {};
+      const err = r.error || null;
+      const color = COLORS[i % COLORS.length];
+      tbody.append(el('tr', { class: r.ok ? 'ok' : 'failed', 'data-method': r.method },
+        el('td', {}, el('span', { class: 'swatch', style: `background:${color}` }), r.method, ' ',
+          el('button', { type: 'button', class: 'small', title: 'plan this method alone and show it',
+            onclick: () => { $('c-method').value = r.method; runCartesian({ method: r.method }); } }, 'open')),
+        el('td', { class: r.ok ? 'good' : 'bad' }, r.ok ? '✔ ok' : `✖ ${err && err.code ? err.code : 'failed'}`),
+        el('td', {}, fmt(d.duration)),
+        el('td', {}, fmt(d.fraction)),
+        el('td', {}, fmt(d.max_position_deviation, 3)),
+        planar ? null : el('td', {}, fmt(d.max_orientation_deviation, 3)),
+        el('td', {}, fmt(d.min_singular_value)),
+        el('td', {}, fmt(d.knot_count)),
+        el('td', {}, fmt(d.compute_time_ms, 3)),
+        el('td', { title: (d.warnings || []).join('\n') }, String((d.warnings || []).length))));
+      if (err) {
+        const at = err.s !== undefined && err.s !== null ? `at s = ${fmt(err.s, 4)}: ` : '';
+        tbody.append(el('tr', { class: 'failed detail', 'data-method-detail': r.method },
+          el('td', { colspan: cols.length, class: 'problem-cell' }, `${at}${err.detail || err.title || ''}`)));
+      }
+    });
+    table.append(tbody);
+  }
+
+  let lastCompare = null; // arguments of the last renderCompareplot, to redraw on the log toggle
+
+  function renderCompareplot(results, tolerance, emptyMessage) {
+    lastCompare = [results, tolerance, emptyMessage];
+    const planar = isPlanar();
+    const yType = $('cmp-log').checked ? { type: 'log', exponentformat: 'power' }
+      : { rangemode: 'tozero', exponentformat: 'e' };
+    const traces = [];
+    const marks = [];
+    results.forEach((r, i) => {
+      const color = COLORS[i % COLORS.length];
+      const prof = r.diagnostics && r.diagnostics.deviation_profile;
+      if (prof && prof.s && prof.s.length) {
+        traces.push({ type: 'scatter', mode: 'lines', name: r.method, legendgroup: r.method,
+          x: prof.s, y: prof.position, xaxis: 'x', yaxis: 'y', line: { color: color, width: 2 },
+          hovertemplate: `${r.method}: %{y:.3g} m<extra>s=%{x:.4f}</extra>` });
+        if (!planar) {
+          traces.push({ type: 'scatter', mode: 'lines', name: `${r.method} orientation`,
+            legendgroup: r.method, showlegend: false, x: prof.s, y: prof.orientation, xaxis: 'x',
+            yaxis: 'y2', line: { color: color, width: 2 },
+            hovertemplate: `${r.method}: %{y:.3g} rad<extra>s=%{x:.4f}</extra>` });
+        }
+      }
+      if (!r.ok && r.error && r.error.s !== undefined && r.error.s !== null) {
+        marks.push({ kind: 'failure', s: r.error.s, label: `✖ ${r.method}`, color: color,
+          message: `${r.error.code}: ${r.error.detail}` });
+      }
+    });
+    traces.push({ type: 'scatter', mode: 'lines', name: `position tolerance ${fmt(tolerance.position)} m`,
+      x: [0, 1], y: [tolerance.position, tolerance.position], xaxis: 'x', yaxis: 'y',
+      line: { color: '#111', width: 1.5, dash: 'dash' }, meta: { role: 'tolerance' } });
+    if (!planar) {
+      traces.push({ type: 'scatter', mode: 'lines',
+        name: `orientation tolerance ${fmt(tolerance.orientation)} rad`, x: [0, 1],
+        y: [tolerance.orientation, tolerance.orientation], xaxis: 'x', yaxis: 'y2',
+        line: { color: '#6b7280', width: 1.5, dash: 'dash' }, meta: { role: 'tolerance' } });
+    }
+    const m = sMarks(marks);
+    if (emptyMessage) {
+      m.annotations.push({ text: emptyMessage, showarrow: false, xref: 'paper', yref: 'paper',
+        x: 0.5, y: 0.5, font: { size: 13, color: '#6b7280' } });
+    }
+    const layout = baseLayout({
+      xaxis: axis('s (path parameter)', { range: [-0.02, 1.02] }),
+      yaxis: axis('position deviation [m]', Object.assign({ domain: planar ? [0, 1] : [0.54, 1] },
+        yType)),
+      shapes: m.shapes, annotations: m.annotations,
+      legend: { font: { size: 11 } }, margin: { l: 70, r: 16, t: 16, b: 44 },
+    });
+    if (!planar) {
+      layout.yaxis2 = axis('orientation deviation [rad]', Object.assign({ domain: [0, 0.44],
+        anchor: 'x' }, yType));
+      layout.xaxis.anchor = 'y2';
+    }
+    draw('plot-compare', traces, layout, `${robotName()}-compare-deviation`);
+  }
+
+  // ---------------------------------------------------------------- presets
+  function elbowUp(x, y) { // planar 2R preset (1.0 m and 0.8 m links), positive elbow
+    const l1 = 1.0;
+    const l2 = 0.8;
+    const q2 = Math.acos((x * x + y * y - l1 * l1 - l2 * l2) / (2 * l1 * l2));
+    return [Math.atan2(y, x) - Math.atan2(l2 * Math.sin(q2), l1 + l2 * Math.cos(q2)), q2];
+  }
+  const PI = Math.PI;
+  const UR5_HOME = [0, -PI / 3, PI / 2, -2 * PI / 3, -PI / 2, 0];
+  const PRESETS = [
+    { id: 'ur5-line', label: 'UR5: 23 cm line, tool turning 0.29 rad', robot: 'ur5',
+      start: UR5_HOME, goal: { positions: [0.3, -1.2, 1.8, -2.2, -1.3, 0.4] }, method: 'sampled',
+      speeds: [0.2, 0.8] },
+    { id: 'planar-hole', label: 'Planar 2R: line through the unreachable hole', robot: 'planar_2r',
+      start: elbowUp(-0.8, 0.05),
+      goal: { pose: { position: [0.8, 0.05, 0], orientation: [0, 0, 0, 1] } }, method: 'sampled' },
+    { id: 'puma-through', label: 'PUMA 560: through the wrist singularity', robot: 'puma560',
+      start: [0, PI / 4, -PI, 0, 0.3, 0], goal: { positions: [0, PI / 4, -PI, 0, -0.3, 0] },
+      method: 'sampled' },
+    { id: 'puma-near', label: 'PUMA 560: near the wrist singularity (slow-down)', robot: 'puma560',
+      start: [0, PI / 4, -PI, 0.4, 0.1, -0.4], goal: { positions: [0.05, PI / 4, -PI, -0.4, -0.1, 0.4] },
+      method: 'sampled' },
+    { id: 'panda-line', label: 'Panda: line to a pose', robot: 'panda',
+      start: [0, -PI / 4, 0, -3 * PI / 4, 0, PI / 2, PI / 4],
+      goal: { pose: { position: [0.507, 0.15, 0.39],
+        orientation: [0.97047, -0.189358, -0.083476, -0.123949] } }, method: 'sampled' },
+    { id: 'ur5-short', label: 'UR5: duration too short (joint_rate_limit)', robot: 'ur5',
+      start: UR5_HOME, goal: { positions: [0.3, -1.2, 1.8, -2.2, -1.3, 0.4] }, method: 'sampled',
+      duration: 0.1 },
+  ];
+
+  async function applyPreset(id) {
+    const p = PRESETS.find((x) => x.id === id);
+    if (!p) return;
+    if (robotName() !== p.robot) await selectRobot(p.robot);
+    buildCartesianForm(p.start, p.goal.positions || null);
+    if (p.goal.pose) {
+      $('c-goal-pose').checked = true;
+      setPose(p.goal.pose);
+    } else {
+      $('c-goal-joints').checked = true;
+    }
+    $('c-method').value = p.method;
+    document.querySelector(`input[name="c-timing"][value="${p.duration ? 'duration' : 'speeds'}"]`).checked = true;
+    if (p.duration) $('c-duration').value = p.duration;
+    $('c-vlin').value = p.speeds ? p.speeds[0] : '';
+    $('c-vang').value = p.speeds ? p.speeds[1] : '';
+    $('c-partial').checked = false;
+    syncCartesian();
+  }
+
+  function setPose(pose) {
+    ['c-px', 'c-py', 'c-pz'].forEach((id, i) => { $(id).value = round6(pose.position[i]); });
+    ['c-qx', 'c-qy', 'c-qz', 'c-qw'].forEach((id, i) => { $(id).value = round6(pose.orientation[i]); });
+  }
+
+  // ---------------------------------------------------------------- wiring
+  function wire() {
+    document.querySelectorAll('#form-tabs button').forEach((b) =>
+      b.addEventListener('click', () => showFormTab(b.dataset.tab)));
+    document.querySelectorAll('#view-tabs button').forEach((b) =>
+      b.addEventListener('click', () => showView(b.dataset.view)));
+    document.querySelectorAll('button.png').forEach((b) => b.addEventListener('click', () => {
+      const div = $(b.dataset.plot);
+      if (!div.data) return;
+      Plotly.downloadImage(div, { format: 'png', filename: `${robotName()}-${b.dataset.plot}`,
+        width: div.clientWidth, height: div.clientHeight, scale: 2 });
+    }));
+    $('download-compare').addEventListener('click', () => {
+      if (state.compareDownload) saveText(state.compareDownload.filename, state.compareDownload.text);
+    });
+    $('robot').addEventListener('change', (e) => { $('c-preset').value = ''; selectRobot(e.target.value); });
+    const presets = $('c-preset');
+    PRESETS.forEach((p) => presets.append(el('option', { value: p.id }, p.label)));
+    presets.addEventListener('change', (e) => applyPreset(e.target.value));
+    document.querySelectorAll('input[name="c-goal-kind"], input[name="c-timing"]').forEach((n) =>
+      n.addEventListener('change', syncCartesian));
+    document.querySelectorAll('input[name="j-timing"]').forEach((n) =>
+      n.addEventListener('change', syncJointTiming));
+    $('s-times').addEventListener('change', syncSplineTimes);
+    $('j-zoom-limits').addEventListener('change', () => { if (lastJoints) renderJoints(...lastJoints); });
+    $('cmp-log').addEventListener('change', () => { if (lastCompare) renderCompareplot(...lastCompare); });
+    $('dev-log').addEventListener('change', () => { if (lastDeviation) renderDeviation(...lastDeviation); });
+    $('s-add').addEventListener('click', () => {
+      const rows = $('s-table').rows.length - 1;
+      const last = jointValues(`s-wp-${rows - 1}`);
+      const lastT = num(`s-t-${rows - 1}`) || 0;
+      addWaypointRow(last.map((v) => (Number.isFinite(v) ? v + 0.2 : 0)), lastT + 1.5);
+      syncSplineTimes();
+    });
+    $('s-remove').addEventListener('click', () => {
+      const table = $('s-table');
+      if (table.rows.length > 3) table.deleteRow(table.rows.length - 1);
+    });
+    $('c-pose-from-goal').addEventListener('click', async () => {
+      const a = await fk(jointValues('c-goal'));
+      if (a) setPose(a.pose);
+    });
+    $('form-cartesian').addEventListener('submit', (e) => { e.preventDefault(); runCartesian(); });
+    $('form-joint').addEventListener('submit', (e) => { e.preventDefault(); runJoint('joint'); });
+    $('form-spline').addEventListener('submit', (e) => { e.preventDefault(); runJoint('spline'); });
+    $('c-compare').addEventListener('click', () => runCompare());
+    syncCartesian();
+  }
+
+  async function main() {
+    document.body.dataset.state = 'busy';
+    wire();
+    ['plot-path', 'plot-deviation', 'plot-sigma'].forEach((d) =>
+      placeholder(d, 'Plan a Cartesian line to see the tool path, deviation and σ'));
+    placeholder('plot-joints', 'Plan a motion to see its joints');
+    placeholder('plot-compare', 'Compare methods to see their deviation curves');
+    try {
+      await loadRobots();
+    } finally {
+      document.body.dataset.state = 'ready';
+    }
+  }
+
+  if (typeof Plotly === 'undefined') {
+    document.addEventListener('DOMContentLoaded', () => setStatus('error',
+      'Plotly did not load from /static/plotly.min.js: install the Python plotly package.'));
+  } else {
+    main();
+  }
+}());

@@ -1,0 +1,404 @@
+"""The playground in headless Chromium, against a live server on loopback.
+
+Starts ``python -m service`` on a free port, loads ``/`` in Chromium (Debian's ``chromium`` and
+``chromium-driver``, driven by selenium) and does what a person would: plans a UR5 ``sampled``
+line, a planar line through the unreachable hole, a spline and a compare run. It asserts what the
+person would see: traces with one point per returned trajectory point, the limit lines, the failure
+detail and where on the line it happened, a compare table row per method. A screenshot of each
+view goes to ``artifacts/`` (gitignored). ``.ci/run`` installs the browser; without it the tests
+skip and say why.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = ROOT / "artifacts"
+CHROMIUM = next(
+    (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),
+    None,
+)
+CHROMEDRIVER = shutil.which("chromedriver")
+
+try:
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select, WebDriverWait
+except ImportError:  # pragma: no cover - the test extra installs selenium
+    webdriver = None
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(
+        webdriver is None or CHROMIUM is None or CHROMEDRIVER is None,
+        reason="needs selenium and Debian's chromium + chromium-driver "
+        "(apt-get install chromium chromium-driver; .ci/run installs them)",
+    ),
+]
+
+CHROME_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-dev-shm-usage",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--window-size=1600,1200",
+    # Software WebGL for the 3D tool path (the page falls back to 2D views without WebGL).
+    "--enable-unsafe-swiftshader",
+]
+PLAN_TIMEOUT_S = 45.0
+FK_SUBSAMPLE = 100
+"""The page computes the tool path from at most this many returned points (app.js MAX_FK_POINTS)."""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[str]:
+    """``python -m service`` on a free loopback port; always terminated."""
+    port = _free_port()
+    env = {**os.environ, "TRAJ_ACCESS_LOG": "false", "TRAJ_LOG_LEVEL": "warning"}
+    log = tempfile.TemporaryFile()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port)],
+        cwd=ROOT,
+        env=env,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with urllib.request.urlopen(f"{url}/health", timeout=1) as r:
+                    if r.status == 200:
+                        break
+            except (urllib.error.URLError, ConnectionError, TimeoutError):
+                pass
+            if proc.poll() is not None or time.monotonic() > deadline:
+                log.seek(0)
+                pytest.fail(f"the service did not start:\n{log.read().decode(errors='replace')}")
+            time.sleep(0.1)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:  # pragma: no cover - a hung server
+            proc.kill()
+            proc.wait()
+        log.close()
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in CHROME_FLAGS:
+        options.add_argument(flag)
+    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
+    downloads = tmp_path_factory.mktemp("downloads")
+    options.add_experimental_option(
+        "prefs",
+        {"download.default_directory": str(downloads), "download.prompt_for_download": False},
+    )
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=options)
+    driver.set_page_load_timeout(30)
+    driver.downloads = downloads
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+@pytest.fixture
+def page(server: str, browser: Any) -> Any:
+    """The page, freshly loaded, robots listed and forms built."""
+    browser.get(f"{server}/")
+    WebDriverWait(browser, 30).until(lambda d: d.execute_script(_STATE) == "ready")
+    return browser
+
+
+_STATE = "return document.body.dataset.state"
+_RUNS = "return Number(document.body.dataset.run || 0)"
+
+
+def _post(server: str, path: str, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+    """The same request as the page's, sent directly: what the plots must show."""
+    req = urllib.request.Request(
+        f"{server}{path}",
+        data=json.dumps(body).encode(),
+        headers={"content-type": "application/json"},
+    )
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return r.status, json.loads(r.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read())
+
+
+def _preset(driver: Any, preset: str) -> None:
+    Select(driver.find_element(By.ID, "c-preset")).select_by_value(preset)
+    WebDriverWait(driver, 15).until(
+        lambda d: d.execute_script("return document.getElementById('c-start-0') !== null")
+    )
+    time.sleep(0.3)  # the preset may switch robots (GET /v1/robots/{name}) before filling fields
+
+
+def _click_and_wait(driver: Any, element_id: str) -> None:
+    runs = driver.execute_script(_RUNS)
+    driver.find_element(By.ID, element_id).click()
+    WebDriverWait(driver, PLAN_TIMEOUT_S).until(
+        lambda d: d.execute_script(_RUNS) > runs and d.execute_script(_STATE) == "done"
+    )
+
+
+def _last_request(driver: Any) -> tuple[str, dict[str, Any]]:
+    """The request the page sent (shown under "Last request"): path and body."""
+    text = driver.execute_script("return document.getElementById('request-json').textContent")
+    head, _, body = text.partition("\n")
+    return head.split()[1], json.loads(body)
+
+
+def _traces(driver: Any, plot: str) -> list[dict[str, Any]]:
+    """name, type, point count, meta and axes of every trace drawn in ``plot``."""
+    return driver.execute_script(
+        """const gd = document.getElementById(arguments[0]);
+        return (gd.data || []).map((t) => ({name: t.name, type: t.type || 'scatter',
+          n: (t.x || []).length, meta: t.meta || null, yaxis: t.yaxis || 'y',
+          y: (t.y || []).slice(0, 5)}));""",
+        plot,
+    )
+
+
+def _layout(driver: Any, plot: str) -> dict[str, Any]:
+    return driver.execute_script(
+        """const gd = document.getElementById(arguments[0]);
+        const l = gd.layout || {};
+        return {shapes: (l.shapes || []).map((s) => ({x0: s.x0, type: s.type})),
+                annotations: (l.annotations || []).map((a) => ({x: a.x, text: a.text}))};""",
+        plot,
+    )
+
+
+def _rendered_lines(driver: Any, plot: str) -> int:
+    """SVG line traces Plotly actually drew (what is on screen, not only in the data)."""
+    return len(driver.find_elements(By.CSS_SELECTOR, f"#{plot} .scatterlayer .trace path.js-line"))
+
+
+def _view(driver: Any, name: str) -> None:
+    driver.find_element(By.CSS_SELECTOR, f"#view-tabs button[data-view='{name}']").click()
+    time.sleep(0.4)  # Plotly resizes the plots of the view just shown
+
+
+def _shot(driver: Any, name: str) -> None:
+    """A screenshot of the whole page (the window grown to its height) in ``artifacts/``."""
+    ARTIFACTS.mkdir(exist_ok=True)
+    size = driver.get_window_size()
+    height = driver.execute_script("return document.documentElement.scrollHeight")
+    driver.set_window_size(size["width"], max(size["height"], height + 140))
+    time.sleep(0.5)  # the plots follow the new size
+    driver.save_screenshot(str(ARTIFACTS / f"playground-{name}.png"))
+    driver.set_window_size(size["width"], size["height"])
+
+
+def _severe_console_errors(driver: Any) -> list[str]:
+    """Console errors other than the failed plan's own 4xx answer."""
+    return [
+        e["message"]
+        for e in driver.get_log("browser")
+        if e["level"] == "SEVERE" and "status of 422" not in e["message"]
+    ]
+
+
+def _download(driver: Any, css: str, suffix: str) -> Path:
+    """Click ``css`` and wait for the browser to save a new ``*suffix`` file."""
+    folder: Path = driver.downloads
+    before = set(folder.glob(f"*{suffix}"))
+    driver.find_element(By.CSS_SELECTOR, css).click()
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline:
+        new = set(folder.glob(f"*{suffix}")) - before
+        if new:
+            path = new.pop()
+            time.sleep(0.2)  # the file is renamed from .crdownload once complete
+            return path
+        time.sleep(0.1)
+    raise AssertionError(f"no {suffix} file was downloaded by {css}")
+
+
+def _check_joint_plot(driver: Any, n_points: int, dof: int, knots: int | None = None) -> None:
+    traces = _traces(driver, "plot-joints")
+    joints = [t for t in traces if (t["meta"] or {}).get("role") == "joint"]
+    limits = [t for t in traces if (t["meta"] or {}).get("role") == "limit"]
+    assert len(joints) == 3 * dof  # position, velocity, acceleration per joint
+    assert all(t["n"] == n_points for t in joints), [(t["name"], t["n"]) for t in joints]
+    assert len(limits) == 3 * dof  # one dashed pair (upper, lower) per joint and quantity
+    assert {t["yaxis"] for t in limits} == {"y", "y2", "y3"}
+    assert _rendered_lines(driver, "plot-joints") >= 6 * dof
+    if knots is not None:
+        marked = [t for t in traces if (t["meta"] or {}).get("role") == "knots"]
+        assert len(marked) == 1 and marked[0]["n"] == knots * dof
+
+
+def test_ur5_sampled_line(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    assert Select(page.find_element(By.ID, "robot")).first_selected_option.text == "ur5"
+    assert (
+        Select(page.find_element(By.ID, "c-method")).first_selected_option.get_attribute("value")
+        == "sampled"
+    )
+    _click_and_wait(page, "c-plan")
+    path, request = _last_request(page)
+    assert path == "/v1/trajectories/cartesian" and request["method"] == "sampled"
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    n = len(body["points"])
+    diag = body["diagnostics"]
+
+    status_text = page.find_element(By.ID, "status").text
+    assert "200" in status_text and f"{n} points" in status_text
+    assert not page.find_element(By.ID, "problem").is_displayed()
+
+    # Cartesian view: tool path beside the ideal line, deviation with the tolerance, sigma(s).
+    path_traces = {t["name"]: t for t in _traces(page, "plot-path")}
+    assert path_traces["tool path"]["n"] == min(n, FK_SUBSAMPLE)
+    assert path_traces["ideal line"]["n"] == 2
+    assert path_traces["tool path"]["type"] in ("scatter3d", "scatter")  # 2D views without WebGL
+    deviation = {t["name"]: t for t in _traces(page, "plot-deviation")}
+    profile = diag["deviation_profile"]
+    assert deviation["position deviation"]["n"] == len(profile["s"])
+    assert deviation["orientation deviation"]["n"] == len(profile["s"])
+    assert any(name.startswith("position tolerance 0.001") for name in deviation)
+    assert any(name.startswith("orientation tolerance 0.01") for name in deviation)
+    sigma = _traces(page, "plot-sigma")
+    assert sigma[0]["n"] == len(diag["singular_value_profile"]["value"])
+    assert sigma[0]["y"][0] == pytest.approx(diag["singular_value_profile"]["value"][0])
+    _shot(page, "ur5-cartesian")
+
+    # Joints view: one point per returned point, the limit lines, every joint.
+    _view(page, "joints")
+    _check_joint_plot(page, n, dof=6)
+    _shot(page, "ur5-joints")
+
+    # Downloads: a plot as PNG, the raw response as JSON.
+    png = _download(page, "button.png[data-plot='plot-joints']", ".png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    saved = _download(page, "#download-json", ".json")
+    assert json.loads(saved.read_text())["joint_names"] == body["joint_names"]
+    assert len(json.loads(saved.read_text())["points"]) == n
+    assert _severe_console_errors(page) == []
+
+
+def test_planar_line_through_the_hole_shows_the_failure(server: str, page: Any) -> None:
+    _preset(page, "planar-hole")
+    _click_and_wait(page, "c-plan")
+    path, request = _last_request(page)
+    status, problem = _post(server, path, request)
+    assert status == 422 and problem["code"] == "unreachable", problem
+    s = problem["s"]
+
+    # The problem, as the service said it, and where on the line.
+    box = page.find_element(By.ID, "problem")
+    assert box.is_displayed()
+    assert page.find_element(By.ID, "problem-code").text == "unreachable"
+    assert page.find_element(By.ID, "problem-detail").text == problem["detail"]
+    assert f"s = {s:.4g}" in page.find_element(By.ID, "problem-s").text
+    assert "422" in page.find_element(By.ID, "status").text
+
+    # Not a blank plot: the planned prefix (same request with allow_partial) and the failure at s.
+    _, prefix = _post(server, path, {**request, "allow_partial": True})
+    n = len(prefix["points"])
+    assert prefix["diagnostics"]["fraction"] == pytest.approx(s, abs=0.02)
+    path_traces = {t["name"]: t for t in _traces(page, "plot-path")}
+    assert path_traces["tool path"]["type"] == "scatter"  # 2D for the planar arm
+    assert path_traces["tool path"]["n"] == min(n, FK_SUBSAMPLE)
+    assert any(name.startswith("✖ unreachable at s=") for name in path_traces)
+    for plot in ("plot-deviation", "plot-sigma"):
+        layout = _layout(page, plot)
+        assert any(sh["x0"] == pytest.approx(s) for sh in layout["shapes"]), plot
+        assert any(a["text"] == "✖ unreachable" for a in layout["annotations"]), plot
+    deviation = {t["name"]: t for t in _traces(page, "plot-deviation")}
+    assert deviation["position deviation"]["n"] == len(
+        prefix["diagnostics"]["deviation_profile"]["s"]
+    )
+    assert "orientation deviation" not in deviation  # position_xy: x and y only
+    _shot(page, "planar-hole-cartesian")
+    _view(page, "joints")
+    _check_joint_plot(page, n, dof=2)
+    _shot(page, "planar-hole-joints")
+    assert _severe_console_errors(page) == []
+
+
+def test_spline_through_waypoints(server: str, page: Any) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='spline']").click()
+    _click_and_wait(page, "s-plan")
+    path, request = _last_request(page)
+    assert path == "/v1/trajectories/spline"
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    dof = len(body["joint_names"])
+    _check_joint_plot(page, len(body["points"]), dof, knots=len(request["waypoints"]))
+    _shot(page, "spline-joints")
+
+
+def test_compare_has_a_row_per_method(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    _click_and_wait(page, "c-compare")
+    path, request = _last_request(page)
+    assert path == "/v1/compare"
+    assert set(request["methods"]) == {
+        "sampled",
+        "bounded_deviation",
+        "bounded_deviation_nlp",
+        "resolved_rate",
+        "resolved_rate_dls",
+    }
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    results = body["results"]
+
+    rows = page.find_elements(By.CSS_SELECTOR, "#compare-table tbody tr[data-method]")
+    assert [r.get_attribute("data-method") for r in rows] == [r["method"] for r in results]
+    assert len(rows) == len(request["methods"])
+    for row, result in zip(rows, results, strict=True):
+        cell = row.find_elements(By.TAG_NAME, "td")[1].text
+        assert ("ok" in cell) == result["ok"], (result["method"], cell)
+
+    curves = [
+        t
+        for t in _traces(page, "plot-compare")
+        if (t["meta"] or {}).get("role") != "tolerance" and t["yaxis"] == "y"
+    ]
+    with_profile = [r for r in results if (r.get("diagnostics") or {}).get("deviation_profile")]
+    assert [t["name"] for t in curves] == [r["method"] for r in with_profile]
+    for trace, result in zip(curves, with_profile, strict=True):
+        assert trace["n"] == len(result["diagnostics"]["deviation_profile"]["s"])
+    _shot(page, "compare")
+    assert _severe_console_errors(page) == []
