@@ -18,7 +18,7 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.deviation import DeviationReport, measure_deviation
 from core.exceptions import InputError, JointLimit, JointRateLimit
-from core.kinematics import Kinematics, task_rows
+from core.kinematics import Kinematics, jacobians, task_rows
 from core.line import StraightLine
 from core.trajectory import Trajectory
 
@@ -28,6 +28,8 @@ DEFAULT_MAX_ANGULAR_SPEED = 1.0
 """Tool angular speed [rad/s] used when a request gives neither a duration nor speed limits."""
 LIMIT_SLACK = 1e-9
 """Relative slack on joint limits when a returned trajectory is checked (rounding only)."""
+MEASURE_CHUNK = 2048
+"""Returned points measured between two deadline checks (about 0.25 s of work on a 2-core box)."""
 
 METHODS = (
     "sampled",
@@ -117,11 +119,59 @@ class CartesianResult:
     failure: Exception | None = None
 
 
-def min_singular_values(robot: Kinematics, positions: np.ndarray) -> np.ndarray:
-    """Smallest singular value of the task rows of the Jacobian at each row of ``positions``."""
+def min_singular_values(
+    robot: Kinematics, positions: np.ndarray, deadline: Deadline = NO_DEADLINE
+) -> np.ndarray:
+    """Smallest singular value of the task rows of the Jacobian at each row of ``positions``
+    (``deadline`` checked every ``MEASURE_CHUNK`` rows)."""
     rows = task_rows(robot.task_space)
-    J = np.stack([robot.jacobian(q)[rows] for q in positions])
-    return np.linalg.svd(J, compute_uv=False)[:, -1]
+    out = []
+    for i in range(0, len(positions), MEASURE_CHUNK):
+        deadline.check("singular values along the trajectory")
+        J = jacobians(robot, positions[i : i + MEASURE_CHUNK])[:, rows]
+        out.append(np.linalg.svd(J, compute_uv=False)[:, -1])
+    return np.concatenate(out)
+
+
+def measure(task: CartesianTask, traj: Trajectory) -> DeviationReport:
+    """``measure_deviation`` of ``traj`` against ``task.line()``, ``MEASURE_CHUNK`` points at a time
+    with ``task.deadline`` checked between chunks, so a 100,000-point plan (2.2 million checks)
+    honors the wall-time budget. Every check depends only on its own interval, so the chunks put
+    together give the report of one call (to rounding, 1e-16 m at a chunk's last interval)."""
+    line, n = task.line(), len(traj.times)
+    kwargs = {
+        "position_tolerance": task.position_tolerance,
+        "orientation_tolerance": task.orientation_tolerance,
+    }
+    parts = []
+    for i in range(0, n - 1, MEASURE_CHUNK):
+        task.deadline.check("dense deviation measurement")
+        j = min(i + MEASURE_CHUNK, n - 1) + 1
+        piece = Trajectory(
+            traj.times[i:j],
+            traj.positions[i:j],
+            traj.velocities[i:j],
+            traj.accelerations[i:j],
+            traj.joint_names,
+        )
+        parts.append(measure_deviation(task.robot, line, piece, **kwargs))
+    if len(parts) == 1:
+        return parts[0]
+
+    def joined(name: str) -> np.ndarray:  # each part's last check is the next part's first
+        arrays = [getattr(p, name) for p in parts]
+        return np.concatenate([a[:-1] for a in arrays[:-1]] + [arrays[-1]])
+
+    return DeviationReport(
+        max_position=max(p.max_position for p in parts),
+        max_orientation=max(p.max_orientation for p in parts),
+        segment_position=np.concatenate([p.segment_position for p in parts]),
+        segment_orientation=np.concatenate([p.segment_orientation for p in parts]),
+        times=joined("times"),
+        s=joined("s"),
+        position=joined("position"),
+        orientation=joined("orientation"),
+    )
 
 
 def check_limits(robot: Kinematics, traj: Trajectory, s: np.ndarray | None = None) -> None:
@@ -157,14 +207,8 @@ def finish(
 ) -> CartesianResult:
     """Check limits, measure the deviation densely and the smallest singular value; return result."""
     check_limits(task.robot, result.trajectory, s)
-    result.deviation = measure_deviation(
-        task.robot,
-        task.line(),
-        result.trajectory,
-        position_tolerance=task.position_tolerance,
-        orientation_tolerance=task.orientation_tolerance,
-    )
-    sv = min_singular_values(task.robot, result.trajectory.positions)
+    result.deviation = measure(task, result.trajectory)
+    sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
     result.min_singular_value = float(sv.min())
     return result
 
@@ -178,6 +222,22 @@ def planner(method: str) -> Planner:
         from core.cartesian import plan_sampled
 
         return plan_sampled
+    if method == "bounded_deviation":
+        from core.deviation import plan_bounded_deviation
+
+        return plan_bounded_deviation
+    if method == "bounded_deviation_nlp":
+        from core.deviation_nlp import plan_bounded_deviation_nlp
+
+        return plan_bounded_deviation_nlp
+    if method == "resolved_rate":
+        from core.rate_control import plan_resolved_rate
+
+        return plan_resolved_rate
+    if method == "resolved_rate_dls":
+        from core.rate_control import plan_resolved_rate_dls
+
+        return plan_resolved_rate_dls
     raise InputError(
         f"method must be one of {', '.join(METHODS)}",
         field=("method",),
