@@ -93,8 +93,27 @@ def _validation_errors(exc: RequestValidationError) -> list[dict[str, Any]]:
     return out
 
 
+def document_problem_media_type(app: FastAPI) -> None:
+    """Make ``/openapi.json`` say what the error answers carry: every 4xx/5xx body documented as
+    ``application/json`` (FastAPI's default for a ``responses`` model) is ``application/problem+json``."""
+    generate = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        schema = generate()
+        for operations in schema.get("paths", {}).values():
+            for operation in operations.values():
+                for status, response in operation.get("responses", {}).items():
+                    content = response.get("content") or {}
+                    if str(status)[:1] in "45" and "application/json" in content:
+                        content[PROBLEM_MEDIA_TYPE] = content.pop("application/json")
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+
 def install(app: FastAPI) -> None:
-    """Register the exception handlers on ``app``."""
+    """Register the exception handlers on ``app`` and document their media type in OpenAPI."""
+    document_problem_media_type(app)
 
     @app.exception_handler(ex.PlanningError)
     async def _planning(_: Request, err: ex.PlanningError) -> Response:
@@ -115,12 +134,27 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(StarletteHTTPException)
     async def _http(_: Request, exc: StarletteHTTPException) -> Response:
+        if exc.status_code == 400:
+            # FastAPI's answer to a body it cannot decode (invalid UTF-8): a client error like
+            # malformed JSON, so 422 `validation` naming the body (API.md has no 400).
+            msg = "the body is not valid JSON text (UTF-8)"
+            body = problem_body(
+                422,
+                "validation",
+                "Invalid request",
+                f"body: {msg}",
+                errors=[{"loc": ["body"], "msg": msg}],
+            )
+            return problem_response(422, body)
         code = "too_large" if exc.status_code == 413 else "validation"
         title = {404: "Not found", 405: "Method not allowed", 413: "Request body too large"}.get(
             exc.status_code, "HTTP error"
         )
         body = problem_body(exc.status_code, code, title, str(exc.detail))
-        return problem_response(exc.status_code, body)
+        response = problem_response(exc.status_code, body)
+        # Keep the exception's headers: a 405 must list the supported methods in `Allow` (RFC 9110).
+        response.headers.update(exc.headers or {})
+        return response
 
     @app.exception_handler(Exception)
     async def _unexpected(_: Request, exc: Exception) -> Response:  # pragma: no cover - a bug

@@ -27,9 +27,10 @@ MAX_URDF_BYTES = 1024 * 1024
 
 
 class StrictModel(BaseModel):
-    """Base of every request model: unknown fields and NaN/Infinity are 422."""
+    """Base of every request model: unknown fields, NaN/Infinity and values of the wrong JSON type
+    (``true`` or ``"1.5"`` where a number goes, ``2.5`` where an integer goes) are 422."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 
 Position = Annotated[float, Field(ge=-MAX_POSITION, le=MAX_POSITION)]

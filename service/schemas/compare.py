@@ -13,7 +13,7 @@ from service.schemas.common import Problem
 class CompareRequest(BaseModel):
     """POST /v1/compare."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
     task: CartesianTaskSpec = Field(
         description="A Cartesian request without `method` (same fields, units and bounds)."
