@@ -30,7 +30,7 @@ from scipy.optimize import lsq_linear
 from scipy.spatial.transform import Rotation
 
 from core.cartesian_task import CartesianTask
-from core.kinematics import task_rows
+from core.kinematics import fk_jacobian_loop, task_rows
 from core.rate_control import simulate
 from core.rate_qp import (
     OSQP_SETTINGS,
@@ -98,14 +98,16 @@ def contenders(t: Ticks) -> dict[str, Callable[[int], np.ndarray] | str]:
     warm_total = DlsQpSolver(robot.dof)
     floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
 
+    kinematics_loop, total_loop = fk_jacobian_loop(robot), fk_jacobian_loop(robot)
+
     def kinematics(k):
-        robot.fk(t.q[k])
-        np.linalg.svd(robot.jacobian(t.q[k])[rows], compute_uv=False)
+        _, Jk = kinematics_loop(t.q[k])  # pose and Jacobian in one pass, as the controller does
+        np.linalg.svd(Jk[rows], compute_uv=False)
         return np.empty(0)
 
     def ours_total(k):
-        robot.fk(t.q[k])  # the controller's pose error needs it
-        Jk = robot.jacobian(t.q[k])[rows]
+        _, Jk = total_loop(t.q[k])  # the pose (the controller's error) and the Jacobian
+        Jk = Jk[rows]
         lam = damping(np.linalg.svd(Jk, compute_uv=False)[-1], floor=floor)
         lower, upper = rate_bounds(t.q[k], limits, dt)
         return warm_total.step(Jk, V[k], lam, lower, upper).x

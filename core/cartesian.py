@@ -23,11 +23,13 @@ prefix with ``fraction`` < 1 when ``allow_partial`` is set.
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
+from core.budget import NO_DEADLINE, Deadline
 from core.cartesian_task import CartesianResult, CartesianTask, finish
 from core.exceptions import (
     BranchFlip,
@@ -37,7 +39,7 @@ from core.exceptions import (
     Singularity,
     Unreachable,
 )
-from core.kinematics import Kinematics, task_rows
+from core.kinematics import Kinematics, jacobians, task_rows
 from core.line import StraightLine
 from core.line_timing import (
     MIN_SPEED_FRACTION,
@@ -79,6 +81,16 @@ _EXACT = 10.0 * IK_SOLVE_TOLERANCE
 """An IK residual above this (yet within IK_TOLERANCE) means IK could not converge fully."""
 _MAX_RETIMES = 4
 _TWO_PI = 2.0 * np.pi
+RATES_CHUNK = 2048
+"""Rows of ``path_rates`` computed between two deadline checks."""
+PINV_RCOND = 1e-15
+"""Singular values below this share of the largest are dropped from J^+ (np.linalg.pinv's default)."""
+BATCH_MIN_POINTS = 8
+"""From this many points on, the returned points are first solved together (``_batch_solve``)."""
+BATCH_ITERATIONS = 8
+"""Newton steps of the batched solve (from the walk's prediction 2-3 reach ``IK_SOLVE_TOLERANCE``)."""
+BATCH_DAMPING = 1e-12
+"""Damping of the batched Newton steps (regularization only: singular points go the one-point way)."""
 
 
 class PathRates(NamedTuple):
@@ -96,19 +108,35 @@ class PathRates(NamedTuple):
 
 
 def path_rates(
-    robot: Kinematics, line: StraightLine, positions: np.ndarray, second_order: bool = True
+    robot: Kinematics,
+    line: StraightLine,
+    positions: np.ndarray,
+    second_order: bool = True,
+    deadline: Deadline = NO_DEADLINE,
 ) -> PathRates:
     """dq/ds = J^+ V at each row of ``positions`` (N, dof), with V the line's twist per unit s (task
-    rows only); d2q/ds2 by a central difference of J^+ V along dq/ds (2 more Jacobians per row)."""
+    rows only); d2q/ds2 by a central difference of J^+ V along dq/ds (2 more Jacobians per row).
+    ``RATES_CHUNK`` rows at a time, ``deadline`` checked between chunks."""
     positions = np.atleast_2d(np.asarray(positions, dtype=float))
+    if len(positions) > RATES_CHUNK:
+        parts = []
+        for i in range(0, len(positions), RATES_CHUNK):
+            deadline.check("joint rates along the line")
+            parts.append(path_rates(robot, line, positions[i : i + RATES_CHUNK], second_order))
+        return PathRates(*(np.concatenate(a) for a in zip(*parts, strict=True)))
     rows = task_rows(robot.task_space)
     V = line.twist(np.array([1.0]))[0][rows]
 
     def rates(qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        J = np.stack([robot.jacobian(q)[rows] for q in qs])
-        sigma = np.linalg.svd(J, compute_uv=False)
-        smallest = sigma[:, -1] if sigma.shape[1] == len(rows) else np.zeros(len(qs))
-        return np.einsum("nij,j->ni", np.linalg.pinv(J), V), smallest
+        # One SVD gives the smallest singular value and the pseudo-inverse (as np.linalg.pinv
+        # builds it, with its default cutoff of 1e-15 times the largest singular value).
+        J = jacobians(robot, qs)[:, rows]
+        u, sv, vt = np.linalg.svd(J, full_matrices=False)
+        smallest = sv[:, -1] if sv.shape[1] == len(rows) else np.zeros(len(qs))
+        large = sv > PINV_RCOND * sv.max(axis=-1, keepdims=True)
+        inverse = np.divide(1.0, sv, where=large, out=np.zeros_like(sv))
+        pinv = np.matmul(np.swapaxes(vt, -1, -2), inverse[..., None] * np.swapaxes(u, -1, -2))
+        return np.einsum("nij,j->ni", pinv, V), smallest
 
     dq, sigma = rates(positions)
     if not second_order:
@@ -407,7 +435,7 @@ def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None =
         if failure is not None:
             break
     positions = np.array(q_list)
-    rates = path_rates(task.robot, line, positions)
+    rates = path_rates(task.robot, line, positions, deadline=task.deadline)
     return LineWalk(np.array(s_list), positions, rates, failure, w.ik_calls)
 
 
@@ -426,9 +454,12 @@ def _solve_points(w: _Walker, walk: LineWalk, s: np.ndarray) -> np.ndarray:
     poses = line.poses(s)
     out = np.empty((len(s), task.robot.dof))
     dq = walk.rates.dq_ds
+    solved = _batch_solve(w, walk, s, k, poses, out)
     for i, (si, ki) in enumerate(zip(s, k, strict=True)):
         if i % 64 == 0:
             task.deadline.check("sampled IK at the returned points")
+        if solved[i]:
+            continue
         if si == walk.s[ki]:
             out[i] = walk.positions[ki]
             continue
@@ -443,6 +474,90 @@ def _solve_points(w: _Walker, walk: LineWalk, s: np.ndarray) -> np.ndarray:
             raise q
         out[i] = q
     return out
+
+
+def _batch_solve(
+    w: _Walker, walk: LineWalk, s: np.ndarray, k: np.ndarray, poses: np.ndarray, out: np.ndarray
+) -> np.ndarray:
+    """The fast path of ``_solve_points``: every point at once, by damped Newton steps vectorized
+    over the points (``fk_jacobian_many``), each from the start the one-point path tries first
+    (its walk point before it, stepped by the rates there). A point is taken, into ``out``, only
+    when it passes that path's tests of its first attempt: residual within ``IK_SOLVE_TOLERANCE``,
+    no whole turns to remove, on the branch (``BRANCH_RATIO``), inside the limits. Returns which
+    points were taken; the others (and robots without ``fk_jacobian_many``, or a task space other
+    than ``pose``) go through the one-point path, with its fallbacks and its errors."""
+    robot = w.robot
+    taken = np.zeros(len(s), dtype=bool)
+    many = getattr(robot, "fk_jacobian_many", None)
+    todo = np.flatnonzero(s != walk.s[k])
+    if many is None or robot.task_space != "pose" or len(todo) < BATCH_MIN_POINTS:
+        return taken
+    for i in range(0, len(todo), RATES_CHUNK):  # a chunk per deadline check
+        _batch_chunk(w, walk, s, k, poses, out, taken, todo[i : i + RATES_CHUNK], many)
+    w.ik_calls += len(todo)
+    return taken
+
+
+def _batch_chunk(
+    w: _Walker,
+    walk: LineWalk,
+    s: np.ndarray,
+    k: np.ndarray,
+    poses: np.ndarray,
+    out: np.ndarray,
+    taken: np.ndarray,
+    todo: np.ndarray,
+    many: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+) -> None:
+    """``_batch_solve`` on the points ``todo`` (indices into ``s``), in place."""
+    q0, h = walk.positions[k[todo]], (s - walk.s[k])[todo]
+    step = walk.rates.dq_ds[k[todo]] * h[:, None]
+    q = q0 + step
+    p_goal, R_goal = poses[todo, :3, 3], poses[todo, :3, :3]
+    active = np.ones(len(todo), dtype=bool)
+    converged = np.zeros(len(todo), dtype=bool)
+    eye = BATCH_DAMPING * np.eye(6)
+    for _ in range(BATCH_ITERATIONS):
+        w.task.deadline.check("sampled IK at the returned points")
+        T, J = many(q[active])
+        e_p = p_goal[active] - T[:, :3, 3]
+        e_o = _log3_many(R_goal[active] @ np.swapaxes(T[:, :3, :3], 1, 2))
+        done = (np.einsum("ij,ij->i", e_p, e_p) <= IK_SOLVE_TOLERANCE**2) & (
+            np.einsum("ij,ij->i", e_o, e_o) <= IK_SOLVE_TOLERANCE**2
+        )
+        idx = np.flatnonzero(active)
+        converged[idx[done]] = True
+        active[idx[done]] = False
+        if not active.any():
+            break
+        e = np.concatenate([e_p, e_o], axis=1)[~done]
+        Jn = J[~done]
+        JT = np.swapaxes(Jn, 1, 2)
+        try:
+            q[active] += (JT @ np.linalg.solve(Jn @ JT + eye, e[:, :, None]))[:, :, 0]
+        except np.linalg.LinAlgError:  # a numerically singular point: all go the one-point way
+            break
+    turns = np.round((q - q0 - step) / _TWO_PI).any(axis=1)
+    off = np.abs(q - q0 - step).max(axis=1) > BRANCH_RATIO * np.abs(step).max(axis=1) + BRANCH_ABS
+    span = np.maximum(w.hi - w.lo, 1.0)
+    inside = np.all((q >= w.lo - _LIMIT_SLACK * span) & (q <= w.hi + _LIMIT_SLACK * span), axis=1)
+    ok = converged & ~turns & ~off & inside
+    out[todo[ok]] = q[ok]
+    taken[todo[ok]] = True
+
+
+def _log3_many(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(N, 3)`` of rotations ``(N, 3, 3)`` within ``pi / 2`` of the identity
+    (farther ones come out as NaN, which fails any tolerance test)."""
+    v = 0.5 * np.stack(
+        [R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], 1
+    )
+    cos = 0.5 * (R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0)
+    sin = np.sqrt(np.einsum("ij,ij->i", v, v))
+    angle = np.arctan2(sin, cos)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(sin > 1e-12, angle / sin, 1.0 + sin * sin / 6.0)
+    return np.where((cos > 0.0)[:, None], v * scale[:, None], np.nan)
 
 
 def plan_sampled(task: CartesianTask) -> CartesianResult:
@@ -513,7 +628,7 @@ def _timed_result(
         if len(todo):
             cache.update(zip(todo.tolist(), _solve_points(solver, walk, todo), strict=True))
         q = np.array([cache[x] for x in s.tolist()])
-        rates = path_rates(robot, line, q)
+        rates = path_rates(robot, line, q, deadline=task.deadline)
         singular = rates.sigma < SINGULAR_VALUE_THRESHOLD
         if singular.any():
             i = int(np.argmax(singular))

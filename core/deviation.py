@@ -479,32 +479,9 @@ def taylor_knots(
 def strict_deviation(
     kin: Kinematics, line: StraightLine, q: np.ndarray, tol_p: float, tol_o: float
 ) -> LineDeviation:
-    """Deviation of configurations ``q`` (N, dof) from the line, measured both ways a client may:
-    ``StraightLine.deviation`` (closest point weighing position and orientation), and the
-    orientation also against the slerp at the closest point by position alone; the larger counts.
-
-    The planners aim at this, so the bound holds whichever way the deviation is measured.
-    """
-    T = kin.fk_many(q)
-    dev = line.deviation(T, tol_p, tol_o)
-    if line.task_space == "position_xy" or line.length < 1e-12:
-        return dev
-    d = line.delta_p
-    s_p = np.clip((T[:, :3, 3] - line.p0) @ d / (d @ d), 0.0, 1.0)
-    # Angle of R_line(s_p)^T R with R_line(s) = R0 exp(s rotvec) (Rodrigues), robustly by atan2.
-    theta = line.angle
-    K = skew(line.rotvec / theta) if theta > 1e-12 else np.zeros((3, 3))
-    a = (s_p * theta)[:, None, None]
-    E_line = np.eye(3) + np.sin(a) * K + (1.0 - np.cos(a)) * (K @ K)
-    E = np.einsum("ij,njk->nik", line.R0.T, T[:, :3, :3])
-    rel = np.einsum("nji,njk->nik", E_line, E)
-    vee = np.stack(
-        [rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]]
-    )
-    at_s_p = np.arctan2(
-        0.5 * np.linalg.norm(vee, axis=0), 0.5 * (np.trace(rel, axis1=1, axis2=2) - 1.0)
-    )
-    return LineDeviation(dev.s, dev.position, np.maximum(dev.orientation, at_s_p))
+    """Deviation of configurations ``q`` (N, dof) from the line (``StraightLine.deviation``, whose
+    orientation term already takes the larger of the two closest-point readings a client may use)."""
+    return line.deviation(kin.fk_many(q), tol_p, tol_o)
 
 
 def skew(u: np.ndarray) -> np.ndarray:

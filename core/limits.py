@@ -125,8 +125,9 @@ def check_boundary_rates(
 ) -> None:
     """Raise ``JointRateLimit`` naming ``field + (joint,)`` where a boundary ``|value|`` ``(dof,)``
     exceeds ``limit`` ``(dof,)``: no timing can fix a start or goal state over the limits."""
-    over = np.flatnonzero(np.abs(value) > limit)
-    if over.size:
+    exceeds = np.abs(value) > limit
+    if exceeds.any():
+        over = exceeds.nonzero()[0]
         j = int(over[0])
         raise JointRateLimit(
             f"{_dotted(field)} of joint {joint_names[j]} is over its limit",

@@ -198,6 +198,7 @@ def plan_joint(
     limits.validate(dof)
     _check_boundaries(kind, motion, limits, names)
     amax = limits.maxima(dof)[1]
+    rated = limits.velocity is not None or limits.acceleration is not None  # else nothing to check
     if duration is None:
         duration = timing.clamp_duration(
             shortest_duration(kind, motion, limits), f"this {kind} move"
@@ -207,26 +208,29 @@ def plan_joint(
         if not (np.isfinite(duration) and 0.0 < duration <= timing.MAX_DURATION):
             raise InputError("duration must be > 0 s and at most 1e5 s", field=("duration",))
         profile = build_profile(kind, motion, duration, amax)
-        hint = lambda: _shortest_hint(kind, motion, limits)  # noqa: E731
-        check_rates(*_rated(kind, profile.peaks()), limits, names, hint=hint)
+        if rated:
+            hint = lambda: _shortest_hint(kind, motion, limits)  # noqa: E731
+            check_rates(*_rated(kind, profile.peaks()), limits, names, hint=hint)
     times = sample_times(duration, sample_period, samples, max_points)
     trajectory = Trajectory.from_profile(profile, times, names)
-    check_rates(
-        *_rated(kind, (trajectory.peak_velocity, trajectory.peak_acceleration)), limits, names
-    )
+    if rated:
+        check_rates(
+            *_rated(kind, (trajectory.peak_velocity, trajectory.peak_acceleration)), limits, names
+        )
     check_positions(trajectory.positions, limits, names, times=times)
     return JointPlan(trajectory, profile, _warnings(kind, motion))
 
 
 def _check_boundaries(kind: str, m: PointToPoint, limits: JointLimits, names: tuple) -> None:
-    maxima = dict(zip(("velocities", "accelerations"), limits.maxima(m.dof), strict=True))
+    maxima = {"velocities": limits.velocity, "accelerations": limits.acceleration}
     for end, state in (("start", m.start), ("goal", m.goal)):
         check_positions(state.positions[None], limits, names, field=(end, "positions"))
         for what, limit in maxima.items():
             value = getattr(state, what)
-            if np.any(value) and what not in BOUNDARY_RATES[kind]:
+            if value.any() and what not in BOUNDARY_RATES[kind]:
                 raise InputError(f"the {kind} profile takes no non-zero {what}", field=(end, what))
-            check_boundary_rates(value, limit, (end, what), names)
+            if limit is not None:  # an unknown limit is infinite: nothing to check
+                check_boundary_rates(value, np.asarray(limit, dtype=float), (end, what), names)
 
 
 def _rated(kind: str, peaks: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray | None]:

@@ -60,7 +60,7 @@ from core.exceptions import (
     Singularity,
     TooLarge,
 )
-from core.kinematics import task_rows
+from core.kinematics import fk_jacobian_loop, task_rows
 from core.line import StraightLine
 from core.path_timing import GridTiming, QuinticTiming, speed_limited
 from core.rate_qp import (
@@ -231,11 +231,12 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
     its, times, active = np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n, dtype=bool)
     fallbacks, failure, first_limit, tau = 0, None, None, 0.0
     e_o = np.zeros(3)
+    kinematics = fk_jacobian_loop(robot)  # one scratch space for the run (this thread only)
     for k in range(n):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
         s, sd, p_d, R_d = setpoint(tau)
-        T_now = robot.fk(q)
+        T_now, J_now = kinematics(q)
         e_p = p_d - T_now[:3, 3]
         if pose_task:
             e_o = _log3(R_d @ T_now[:3, :3].T)
@@ -251,7 +252,7 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
             if not (at_end and err_p <= goal_p and err_o <= goal_o):
                 failure = _stuck(robot, line, q, sigma[k - 1], first_limit, at_end, s, dt * k)
             break
-        J = robot.jacobian(q)[rows]
+        J = J_now[rows]
         twist = sd * unit_twist
         feedback = gain * np.concatenate([e_p, e_o])[rows]
         U, S, Vt = np.linalg.svd(J, full_matrices=False)

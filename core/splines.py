@@ -34,6 +34,8 @@ from core.trajectory import MAX_POINTS, Trajectory, default_joint_names, sample_
 BOUNDARIES = ("clamped", "natural", "not-a-knot")
 MIN_KNOT_SPACING = 1e-6
 """Smallest interval [s] between two given knot times."""
+SAMPLE_BLOCK = 2048
+"""Samples evaluated at once by ``SplineProfile.sample`` (its temporaries stay in cache)."""
 SHAPE_ITERATIONS = 8
 """Rounds of segment-wise re-allocation before the final uniform scaling."""
 
@@ -63,6 +65,7 @@ class SplineProfile:
         v1 = np.zeros(dof) if goal_velocity is None else goal_velocity
         bc = ((1, v0), (1, v1)) if boundary == "clamped" else boundary
         self.spline = CubicSpline(knot_times, waypoints, bc_type=bc, axis=0)
+        self._coeffs = np.ascontiguousarray(self.spline.c.transpose(0, 2, 1))  # (4, dof, n)
         self.knot_times, self.boundary = knot_times, boundary
         self.duration = float(knot_times[-1])
         zero = np.zeros(dof) if boundary == "natural" else None
@@ -75,10 +78,49 @@ class SplineProfile:
     def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
         """Derivative ``order`` at times ``t`` ``(N,)`` -> ``(N, dof)``; exact at the ends."""
         t = np.asarray(t, dtype=float)
-        out = np.asarray(self.spline(t, nu=order))
-        for at, values in self._ends:
-            if order < len(values) and values[order] is not None:
-                out[t == at] = values[order]
+        return self._pin(self._hits(t), order, np.asarray(self.spline(t, nu=order)))
+
+    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities, accelerations at ``t`` ``(N,)``, each ``(N, dof)``: the same as
+        three calls (to ~1e-15), with one interval search and Horner's rule on ``(dof, N)`` rows
+        in blocks of ``SAMPLE_BLOCK`` samples (the working set stays in cache): faster than
+        scipy's three evaluations."""
+        t = np.asarray(t, dtype=float)
+        knots = self.knot_times
+        k = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
+        x = t - knots[k]
+        n, dof = t.size, self._coeffs.shape[1]
+        q, qd, qdd = np.empty((3, n, dof))  # one allocation: large ones cost page faults
+        for lo in range(0, n, SAMPLE_BLOCK):
+            hi = min(n, lo + SAMPLE_BLOCK)
+            xs = x[lo:hi]
+            a, b, c, d = np.take(self._coeffs, k[lo:hi], axis=2)  # each (dof, hi - lo)
+            # Horner with its derivatives: p = a x + b, then p x + c (=: r), q = r x + d;
+            # qd = (a x + p) x + r = 3a x^2 + 2b x + c; qdd = 2 (a x + p + a x) = 6a x + 2b.
+            # Rows are (dof, block) (the long axis innermost), copied into the (N, dof) outputs.
+            ax = a * xs
+            p = ax + b
+            dp = ax + p
+            acc = dp + ax
+            acc *= 2.0
+            p *= xs
+            p += c
+            pos = p * xs
+            pos += d
+            dp *= xs
+            dp += p
+            q[lo:hi], qd[lo:hi], qdd[lo:hi] = pos.T, dp.T, acc.T
+        hits = self._hits(t)
+        return self._pin(hits, 0, q), self._pin(hits, 1, qd), self._pin(hits, 2, qdd)
+
+    def _hits(self, t: np.ndarray) -> list[np.ndarray]:
+        """Indices of the samples at exactly each end (0 and the duration)."""
+        return [(t == at).nonzero()[0] for at, _ in self._ends]
+
+    def _pin(self, hits: list[np.ndarray], order: int, out: np.ndarray) -> np.ndarray:
+        for hit, (_, values) in zip(hits, self._ends, strict=True):
+            if order < len(values) and values[order] is not None and hit.size:
+                out[hit] = values[order]
         return out
 
     def segment_peaks(self) -> tuple[np.ndarray, np.ndarray]:
@@ -238,12 +280,14 @@ def plan_spline(
                 return ""
             return f"; times allocated within the limits would take {allocated:.6g} s"
 
-        peaks = (peak.max(axis=0) for peak in profile.segment_peaks())
-        check_rates(*peaks, limits, names, hint=hint)
+        if limits.velocity is not None or limits.acceleration is not None:
+            peaks = (peak.max(axis=0) for peak in profile.segment_peaks())
+            check_rates(*peaks, limits, names, hint=hint)
     trajectory = Trajectory.from_profile(
         profile, sample_times(profile.duration, sample_period, samples, max_points), names
     )
-    check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
+    if limits.velocity is not None or limits.acceleration is not None:  # else nothing to check
+        check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
     check_positions(trajectory.positions, limits, names, times=trajectory.times)
     warnings = () if not np.any(trajectory.velocities[-1]) else (timing.NONZERO_END_VELOCITY,)
     return SplinePlan(trajectory, profile, knots, warnings)

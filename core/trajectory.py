@@ -53,7 +53,9 @@ class Trajectory:
             raise ValueError(f"times has shape {self.times.shape}, expected ({n},)")
         for name in ("velocities", "accelerations"):
             if getattr(self, name).shape != (n, dof):
-                raise ValueError(f"{name} has shape {getattr(self, name).shape}, expected {(n, dof)}")
+                raise ValueError(
+                    f"{name} has shape {getattr(self, name).shape}, expected {(n, dof)}"
+                )
         if not self.joint_names:
             object.__setattr__(self, "joint_names", default_joint_names(dof))
         elif len(self.joint_names) != dof:
@@ -82,12 +84,18 @@ class Trajectory:
     def from_profile(
         cls, profile: Profile, times: np.ndarray, joint_names: tuple[str, ...] = ()
     ) -> Trajectory:
-        """Sample ``profile`` (positions, velocities, accelerations) at ``times``."""
+        """Sample ``profile`` (positions, velocities, accelerations) at ``times``; through its
+        ``sample(times)`` when it has one (the three orders at once)."""
+        sample = getattr(profile, "sample", None)
+        if sample is not None:
+            q, qd, qdd = sample(times)
+        else:
+            q, qd, qdd = profile(times, 0), profile(times, 1), profile(times, 2)
         return cls(
             times=times,
-            positions=profile(times, 0),
-            velocities=profile(times, 1),
-            accelerations=profile(times, 2),
+            positions=q,
+            velocities=qd,
+            accelerations=qdd,
             joint_names=tuple(joint_names),
         )
 
@@ -130,13 +138,16 @@ def sample_times(
     period = DEFAULT_SAMPLE_PERIOD if sample_period is None else float(sample_period)
     if not np.isfinite(period) or period <= 0.0:
         raise InputError("sample_period must be a finite number > 0 s", field=("sample_period",))
-    intervals = int(np.ceil(duration / period - 1e-9))
-    if intervals + 1 > max_points:
+    # Count in floats first: a subnormal period (5e-324) makes the ratio inf, which int() refuses.
+    points = float(np.ceil(duration / period - 1e-9)) + 1.0
+    if not points <= max_points:
+        count = f"{points:.0f}" if np.isfinite(points) else f"more than {max_points}"
         raise TooLarge(
-            f"duration {duration:.6g} s at sample_period {period:.6g} s gives {intervals + 1} "
+            f"duration {duration:.6g} s at sample_period {period:.6g} s gives {count} "
             f"points, over the limit of {max_points}",
             field=("sample_period",),
         )
+    intervals = int(points) - 1
     times = np.arange(intervals + 1, dtype=float) * period
     times[-1] = duration
     if intervals >= 2 and times[-1] - times[-2] < 1e-9:

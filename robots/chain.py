@@ -102,22 +102,59 @@ class Chain:
         R_n[i, j]`` (rotations transposed and stacked along the last axis, so that every product is
         one matrix product and every element-wise step runs over contiguous length-N rows).
         """
+        return self._walk(qs, jacobian=False)[0]
+
+    def fk_jacobian_many(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``T_base_tool`` ``(N, 4, 4)`` and the geometric Jacobians ``(N, 6, nq)`` in the base
+        frame (linear rows first) for each row of ``qs`` ``(N, nq)``, from the same product.
+
+        Column of joint ``k`` with axis ``z_k`` and origin ``o_k`` (base frame): revolute
+        ``[z_k x (p_tip - o_k); z_k]``, prismatic ``[z_k; 0]``. Columns of joints off the chain
+        are zero (pinocchio's convention).
+        """
+        T, J = self._walk(qs, jacobian=True)
+        return T, J  # type: ignore[return-value]
+
+    def _walk(self, qs: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """The product of ``fk_many``, also keeping each joint's axis and origin for Jacobians."""
         qs = np.asarray(qs, dtype=float)
         n = qs.shape[0]
         S = np.repeat(self.T_base_world[:3, :3].T.reshape(3, 3, 1), n, axis=2).reshape(3, 3 * n)
         p = np.repeat(self.T_base_world[:3, 3].reshape(3, 1), n, axis=1)
         blocks: np.ndarray = self._blocks  # type: ignore[attr-defined]
-        for k in range(len(self.q_index)):
+        joints = len(self.q_index)
+        axes = np.empty((joints, 3, n)) if jacobian else None  # z_k, base frame
+        origins = np.empty((joints, 3, n)) if jacobian else None  # o_k, base frame
+        for k in range(joints):
             p += (self.translations[k] @ S).reshape(3, n)
             x = qs[:, self.q_index[k]]
             if self.revolute[k]:
                 G = (blocks[k] @ S).reshape(3, 3, 3, n)
                 S = (G[0] + np.sin(x) * G[1] + (1.0 - np.cos(x)) * G[2]).reshape(3, 3 * n)
+                if origins is not None:
+                    origins[k] = p
             else:
                 S = blocks[k, :3] @ S
+            if axes is not None:
+                axes[k] = (self.axes[k] @ S).reshape(3, n)
+            if not self.revolute[k]:
                 p += (self.axes[k] @ S).reshape(3, n) * x
         out = np.zeros((n, 4, 4))
         out[:, :3, :3] = (self.T_last_tip[:3, :3].T @ S).reshape(3, 3, n).transpose(2, 1, 0)
-        out[:, :3, 3] = (p + (self.T_last_tip[:3, 3] @ S).reshape(3, n)).T
+        tip = p + (self.T_last_tip[:3, 3] @ S).reshape(3, n)
+        out[:, :3, 3] = tip.T
         out[:, 3, 3] = 1.0
-        return out
+        if axes is None or origins is None:
+            return out, None
+        J = np.zeros((n, 6, qs.shape[1]))
+        rev, pri = self.revolute, ~self.revolute
+        if rev.any():
+            z, r = axes[rev], tip - origins[rev]  # (R, 3, n)
+            cols = self.q_index[rev]
+            J[:, 0, cols] = (z[:, 1] * r[:, 2] - z[:, 2] * r[:, 1]).T
+            J[:, 1, cols] = (z[:, 2] * r[:, 0] - z[:, 0] * r[:, 2]).T
+            J[:, 2, cols] = (z[:, 0] * r[:, 1] - z[:, 1] * r[:, 0]).T
+            J[:, 3:, cols] = z.transpose(2, 1, 0)
+        if pri.any():
+            J[:, :3, self.q_index[pri]] = axes[pri].transpose(2, 1, 0)
+        return out, J

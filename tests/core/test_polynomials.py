@@ -210,3 +210,31 @@ def test_trapezoid_raises_the_acceleration_a_short_duration_needs() -> None:
     prof = TrapezoidalProfile(np.zeros(1), np.ones(1), 1.0, np.array([1.0]))
     # 4 |dq| / T^2 = 4 > 1: reported, so the planner's limit check catches it.
     assert prof.peaks()[1][0] == pytest.approx(4.0)
+
+
+def test_sample_equals_three_calls() -> None:
+    """``sample`` (powers of s shared by the three orders) equals ``profile(t, order)``; the ends
+    are the boundary conditions exactly."""
+    rng = np.random.default_rng(RNG_SEED + 40)
+    q0, q1, v0, v1, a0, a1 = rng.normal(size=(6, 4))
+    t = np.concatenate([[0.0, 2.5], rng.uniform(0.0, 2.5, 300)])
+    for profile in (
+        PolynomialProfile(q0, q1, 2.5, v0, v1, a0, a1),
+        PolynomialProfile(q0, q1, 2.5, v0, v1),
+        LinearProfile(q0, q1, 2.5),
+    ):
+        for order, got in enumerate(profile.sample(t)):
+            np.testing.assert_allclose(got, profile(t, order), rtol=0, atol=1e-12)
+        q = profile.sample(t)[0]
+        np.testing.assert_array_equal(q[0], q0)
+        np.testing.assert_array_equal(q[1], q1)
+
+
+def test_unit_roots_take_roots_at_the_bracket_ends_at_once() -> None:
+    """The rest-to-rest quintic's jerk has roots at s = 0 and 1 (and 1/2): found exactly, without
+    ~45 bisection steps toward an end (the loop ends after its first iteration)."""
+    c = np.array([120.0, -180.0, 60.0, 0.0])[:, None] * np.array([1.0, -2.5, 1e-3])
+    roots = unit_roots(c)
+    np.testing.assert_allclose(
+        np.sort(roots, axis=0), [[0.0] * 3, [0.5] * 3, [1.0] * 3], atol=1e-15
+    )

@@ -220,3 +220,24 @@ def test_the_deadline_stops_allocation() -> None:
         plan_spline(
             np.array([[0.0], [1.0]]), limits=JointLimits(np.ones(1), np.ones(1)), deadline=deadline
         )
+
+
+def test_sample_equals_three_evaluations_in_and_out_of_order() -> None:
+    """``SplineProfile.sample`` (one interval search, blocked Horner) equals ``profile(t, order)``
+    for every boundary condition, at unsorted times, knots and ends included, past one block."""
+    from core.splines import SAMPLE_BLOCK
+
+    rng = np.random.default_rng(21)
+    waypoints = np.cumsum(rng.uniform(-0.5, 0.5, (9, 3)), axis=0)
+    knots = np.concatenate([[0.0], np.cumsum(rng.uniform(0.2, 1.0, 8))])
+    t = np.concatenate([knots, rng.uniform(0.0, knots[-1], 2 * SAMPLE_BLOCK + 7)])
+    rng.shuffle(t)
+    for boundary in BOUNDARIES:
+        profile = SplineProfile(knots, waypoints, boundary)
+        for order, got in enumerate(profile.sample(t)):
+            want = profile(t, order)
+            assert got.shape == want.shape
+            atol = 1e-12 * max(1.0, np.abs(want).max())
+            np.testing.assert_allclose(got, want, rtol=0, atol=atol)
+        ends = (t == 0.0) | (t == knots[-1])
+        np.testing.assert_array_equal(profile.sample(t)[0][ends], profile(t)[ends])  # pinned
