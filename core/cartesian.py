@@ -30,10 +30,9 @@ from typing import NamedTuple
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.cartesian_task import CartesianResult, CartesianTask, finish
+from core.cartesian_task import CartesianResult, CartesianTask, finish, validated_line
 from core.exceptions import (
     BranchFlip,
-    InputError,
     JointLimit,
     PlanningError,
     Singularity,
@@ -562,7 +561,7 @@ def _log3_many(R: np.ndarray) -> np.ndarray:
 
 def plan_sampled(task: CartesianTask) -> CartesianResult:
     """Plan ``task`` by sampled IK along the line (see the module docstring)."""
-    line = _validated_line(task)
+    line = validated_line(task)
     walk = walk_line(task, line)
     failure, attempts = walk.failure, 0
     while True:
@@ -576,42 +575,6 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
             if not task.allow_partial or err.s is None or attempts >= 3:
                 raise
             walk, failure = walk.before(err.s), err
-
-
-def _validated_line(task: CartesianTask) -> StraightLine:
-    """The task's line after the entry checks (InputError / JointLimit naming the field)."""
-    robot = task.robot
-    for field, value in (
-        (("tolerance", "position"), task.position_tolerance),
-        (("tolerance", "orientation"), task.orientation_tolerance),
-        (("duration",), task.duration),
-        (("max_linear_speed",), task.max_linear_speed),
-        (("max_angular_speed",), task.max_angular_speed),
-    ):
-        if value is not None and not (np.isfinite(value) and value > 0.0):
-            raise InputError(f"{'.'.join(field)} must be a finite number > 0", field=field)
-    for name, q in (("start", task.q_start), ("goal", task.q_goal)):
-        if q is not None and np.shape(q) != (robot.dof,):
-            raise InputError(
-                f"{name}.positions needs {robot.dof} values, one per joint",
-                field=(name, "positions"),
-            )
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    for name, q, s in (("start", task.q_start, 0.0), ("goal", task.q_goal, 1.0)):
-        if q is not None and (np.any(q < lo) or np.any(q > hi)):
-            j = int(np.argmax(np.maximum(lo - q, q - hi)))
-            raise JointLimit(
-                f"{name}.positions puts joint {robot.joint_names[j]} outside its limits",
-                field=(name, "positions", j),
-                s=s,
-                joint=j,
-            )
-    line = task.line()
-    if line.length < 1e-9 and line.angle < 1e-9:
-        raise InputError(
-            "the goal pose is the start pose: there is no line to plan", field=("goal",)
-        )
-    return line
 
 
 def _timed_result(

@@ -28,7 +28,6 @@ from core.budget import NO_DEADLINE, Deadline
 from core.exceptions import (
     BranchFlip,
     Infeasible,
-    InputError,
     JointLimit,
     Singularity,
     Unreachable,
@@ -617,44 +616,6 @@ def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> T
     return TimedPath(path, timing, traj, s)
 
 
-def validated_line(task: CartesianTask) -> StraightLine:
-    """The task's line, after the entry checks (``InputError`` / ``JointLimit`` naming the field):
-    tolerances finite and > 0, start and goal positions of the right length and inside the joint
-    limits, a goal pose other than the start pose."""
-    robot = task.robot
-    for name, value in (
-        ("position", task.position_tolerance),
-        ("orientation", task.orientation_tolerance),
-    ):
-        if not np.isfinite(value) or value <= 0.0:
-            raise InputError(
-                f"tolerance.{name} must be a finite number > 0", field=("tolerance", name)
-            )
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    for name, q, s in (("start", task.q_start, 0.0), ("goal", task.q_goal, 1.0)):
-        if q is None:
-            continue
-        if np.shape(q) != (robot.dof,):
-            raise InputError(
-                f"{name}.positions needs {robot.dof} values, one per joint",
-                field=(name, "positions"),
-            )
-        if np.any(q < lo) or np.any(q > hi):
-            j = int(np.argmax(np.maximum(lo - q, q - hi)))
-            raise JointLimit(
-                f"{name}.positions puts joint {robot.joint_names[j]} outside its limits",
-                field=(name, "positions", j),
-                s=s,
-                joint=j,
-            )
-    line = task.line()
-    if line.length < 1e-9 and line.angle < 1e-9:
-        raise InputError(
-            "the goal pose is the start pose: there is no line to plan", field=("goal",)
-        )
-    return line
-
-
 MEASURE_CHUNK = 2048
 """Returned intervals measured between two deadline checks."""
 
@@ -790,6 +751,8 @@ def plan_bounded_deviation(task: CartesianTask) -> CartesianResult:
 
 
 def _plan_taylor(task: CartesianTask) -> CartesianResult:
+    from core.cartesian_task import validated_line  # cartesian_task imports this module
+
     line = validated_line(task)
     started = time.perf_counter()
     stats = TaylorStats()

@@ -56,7 +56,7 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
-from core.cartesian_task import CartesianResult, CartesianTask
+from core.cartesian_task import CartesianResult, CartesianTask, validated_line
 from core.deviation import (
     MARGIN,
     PATH_CHECKS,
@@ -72,7 +72,6 @@ from core.deviation import (
     plan_partial,
     skew,
     taylor_knots,
-    validated_line,
 )
 from core.exceptions import InputError, NoConvergence, TimeBudgetExceeded
 from core.kinematics import Kinematics

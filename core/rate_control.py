@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from core.cartesian_task import CartesianResult, CartesianTask
+from core.cartesian_task import CartesianResult, CartesianTask, validated_line
 from core.exceptions import (
     InputError,
     JointLimit,
@@ -184,29 +184,9 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         raise InputError("control_period must be a finite number > 0 s", field=("control_period",))
     limits = RateLimits.of(robot)
     lo_q, hi_q, vmax = limits.position[:, 0], limits.position[:, 1], limits.velocity
-    for name, given, at in (("start", task.q_start, 0.0), ("goal", task.q_goal, 1.0)):
-        if given is None:
-            continue
-        if np.shape(given) != (robot.dof,) or not np.all(np.isfinite(given)):
-            raise InputError(
-                f"{name}.positions needs {robot.dof} finite values, one per joint",
-                field=(name, "positions"),
-            )
-        if np.any(given < lo_q) or np.any(given > hi_q):
-            j = int(np.argmax(np.maximum(lo_q - given, given - hi_q)))
-            raise JointLimit(
-                f"{name}.positions puts joint {robot.joint_names[j]} outside its limits",
-                field=(name, "positions", j),
-                s=at,
-                joint=j,
-            )
     q = np.array(task.q_start, dtype=float)
     solver = check_solver(task.solver) if dls else ""
-    line = task.line()
-    if line.length < 1e-9 and line.angle < 1e-9:
-        raise InputError(
-            "the goal pose is the start pose: there is no line to plan", field=("goal",)
-        )
+    line = validated_line(task)
     timing = nominal_timing(task, line)
     nominal = max(1, math.ceil(timing.duration / period - 1e-9))
     dt = timing.duration / nominal
