@@ -7,11 +7,12 @@ ROS Duration ``{"sec", "nanosec"}`` converted through integer nanoseconds.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 import orjson
-from starlette.responses import Response
+from starlette.responses import Response, StreamingResponse
 
 from core.exceptions import Infeasible
 from core.trajectory import Trajectory
@@ -79,9 +80,36 @@ def check_finite(traj: Trajectory) -> None:
             raise Infeasible(f"planning produced a non-finite {name} value; the plan is refused")
 
 
+STREAM_POINTS = 5_000
+"""A body whose ``points`` hold more than this many points is streamed ``STREAM_POINTS`` at a time,
+so a worker never holds the whole encoded document of a large trajectory (hundreds of MB)."""
+
+
 def json_response(body: Any, status_code: int = 200) -> Response:
+    """``body`` as JSON; a large trajectory document is streamed in chunks (same bytes)."""
+    points = body.get("points") if isinstance(body, dict) else None
+    if isinstance(points, list) and len(points) > STREAM_POINTS:
+        return StreamingResponse(
+            _stream(body), status_code=status_code, media_type="application/json"
+        )
     return Response(
         orjson.dumps(body, option=JSON_OPTIONS),
         status_code=status_code,
         media_type="application/json",
     )
+
+
+def _stream(body: dict[str, Any]) -> Iterator[bytes]:
+    """The bytes of ``orjson.dumps(body)``, with ``points`` written a chunk at a time."""
+    yield b"{"
+    for i, (key, value) in enumerate(body.items()):
+        yield (b"," if i else b"") + orjson.dumps(key) + b":"
+        if key != "points":
+            yield orjson.dumps(value, option=JSON_OPTIONS)
+            continue
+        yield b"["
+        for start in range(0, len(value), STREAM_POINTS):
+            chunk = orjson.dumps(value[start : start + STREAM_POINTS], option=JSON_OPTIONS)
+            yield (b"," if start else b"") + chunk[1:-1]
+        yield b"]"
+    yield b"}"

@@ -41,9 +41,7 @@ WARMUP = 500
 LOAD_MAX_SECONDS = 240.0
 LARGEST_PEAK_MB = 512.0
 """Documented bound: a worker's peak RSS after serving 100,000 points of 7 joints."""
-# 1280 MB held in one run (910 MB peak) and failed in another (1320 MB): the peak of a 403 MB
-# response varies with the allocator; 1.5 GiB is the bound we document.
-WIDEST_PEAK_MB = 1536.0
+WIDEST_PEAK_MB = 1280.0
 """Documented bound: a worker's peak RSS after serving 100,000 points of 64 joints."""
 SMALL_PLAN = {
     "profile": "quintic",
