@@ -7,7 +7,7 @@ planning is CPU-bound, so FastAPI runs it in its thread pool.
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Query, Request
+from fastapi import APIRouter, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
@@ -15,17 +15,11 @@ from robots import registry
 from service import cartesian_convert
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
-from service.schemas.common import PROBLEM_RESPONSES, TimeFormat
+from service.schemas.common import TIME_FORMAT_QUERY, TimeFormat, trajectory_responses
 
 router = APIRouter(prefix="/v1/trajectories", tags=["cartesian"])
 
-RESPONSES = {200: {"model": CartesianResponse, "description": "The planned trajectory"}}
-RESPONSES.update(PROBLEM_RESPONSES)
-TIME_FORMAT = Query(
-    "float",
-    description="float: time_from_start in seconds; ros: a ROS Duration {sec, nanosec} "
-    "(0 <= nanosec < 1e9), converted through integer nanoseconds.",
-)
+RESPONSES = trajectory_responses(CartesianResponse)
 
 
 @router.post(
@@ -44,7 +38,7 @@ TIME_FORMAT = Query(
     ),
 )
 def cartesian_trajectory(
-    body: CartesianRequest, request: Request, time_format: TimeFormat = TIME_FORMAT
+    body: CartesianRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
 ) -> Response:
     settings = request.app.state.settings
     deadline = Deadline(settings.time_budget_s)

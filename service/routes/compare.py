@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from fastapi import APIRouter, Query, Request
+from fastapi import APIRouter, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
@@ -20,7 +20,7 @@ from robots import registry
 from service import cartesian_convert
 from service.encoding import json_response
 from service.errors import planning_error_body
-from service.schemas.common import PROBLEM_RESPONSES, TimeFormat
+from service.schemas.common import PROBLEM_RESPONSES, TIME_FORMAT_QUERY, TimeFormat
 from service.schemas.compare import CompareRequest, CompareResponse
 
 router = APIRouter(prefix="/v1", tags=["compare"])
@@ -39,7 +39,7 @@ RESPONSES.update(PROBLEM_RESPONSES)
 def compare(
     body: CompareRequest,
     request: Request,
-    time_format: TimeFormat = Query("float", description="float seconds or ros Duration"),
+    time_format: TimeFormat = TIME_FORMAT_QUERY,
 ) -> Response:
     settings = request.app.state.settings
     robot = registry.resolve(body.task.robot)

@@ -9,25 +9,24 @@ from __future__ import annotations
 
 import time
 
-from fastapi import APIRouter, Query, Request
+from fastapi import APIRouter, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
 from core.point_to_point import plan_joint
 from core.splines import plan_spline
 from service import convert
-from service.schemas.common import PROBLEM_RESPONSES, TimeFormat, TrajectoryResponse
+from service.schemas.common import (
+    TIME_FORMAT_QUERY,
+    TimeFormat,
+    TrajectoryResponse,
+    trajectory_responses,
+)
 from service.schemas.trajectories import JointTrajectoryRequest, SplineRequest
 
 router = APIRouter(prefix="/v1/trajectories", tags=["trajectories"])
 
-RESPONSES = {200: {"model": TrajectoryResponse, "description": "The planned trajectory"}}
-RESPONSES.update(PROBLEM_RESPONSES)
-TIME_FORMAT = Query(
-    "float",
-    description="float: time_from_start in seconds; ros: a ROS Duration {sec, nanosec} "
-    "(0 <= nanosec < 1e9), converted through integer nanoseconds.",
-)
+RESPONSES = trajectory_responses(TrajectoryResponse)
 
 
 @router.post(
@@ -36,7 +35,7 @@ TIME_FORMAT = Query(
     summary="Point-to-point joint move: linear, cubic, quintic or trapezoidal profile",
 )
 def joint_trajectory(
-    body: JointTrajectoryRequest, request: Request, time_format: TimeFormat = TIME_FORMAT
+    body: JointTrajectoryRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
 ) -> Response:
     started = time.perf_counter()
     motion, limits, names = convert.joint_inputs(body)
@@ -61,7 +60,7 @@ def joint_trajectory(
     summary="C2 cubic spline through waypoints (clamped, natural, not-a-knot)",
 )
 def spline_trajectory(
-    body: SplineRequest, request: Request, time_format: TimeFormat = TIME_FORMAT
+    body: SplineRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
 ) -> Response:
     started = time.perf_counter()
     inputs = convert.spline_inputs(body)

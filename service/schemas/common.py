@@ -10,6 +10,7 @@ import math
 from typing import Annotated, Any, Literal
 
 import numpy as np
+from fastapi import Query
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from core.rotations import QUAT_NORM_TOLERANCE, matrix_to_pose, pose_to_matrix
@@ -122,6 +123,13 @@ class Sampling(StrictModel):
 
 TimeFormat = Literal["float", "ros"]
 
+TIME_FORMAT_QUERY: Any = Query(
+    "float",
+    description="float: time_from_start in seconds; ros: a ROS Duration {sec, nanosec} "
+    "(0 <= nanosec < 1e9), converted through integer nanoseconds.",
+)
+"""The ``?time_format=`` query parameter of every trajectory-returning route."""
+
 
 class RosDuration(BaseModel):
     sec: int = Field(description="Whole seconds.")
@@ -222,3 +230,8 @@ class Pose(StrictModel):
         """The pose of ``T`` (4, 4); the quaternion has ``w >= 0``."""
         p, q = matrix_to_pose(T)
         return cls.model_construct(position=p.tolist(), orientation=q.tolist())
+
+
+def trajectory_responses(model: type[BaseModel]) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI ``responses`` of a route answering ``model`` (200) or problem+json."""
+    return {200: {"model": model, "description": "The planned trajectory"}, **PROBLEM_RESPONSES}
