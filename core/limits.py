@@ -109,12 +109,13 @@ def check_rates(
     ):
         if peak is None:
             continue
-        ratio = np.asarray(peak, dtype=float) / limit  # 0 where the limit is inf
+        with np.errstate(over="ignore"):  # a tiny limit gives an infinite ratio: still over
+            ratio = np.asarray(peak, dtype=float) / limit  # 0 where the limit is inf
         j = int(np.argmax(ratio))
         if ratio[j] > 1.0 + tolerance:
             raise JointRateLimit(
                 f"joint {joint_names[j]} would exceed its {kind} limit by "
-                f"{100.0 * (ratio[j] - 1.0):.3g} %{hint() if hint else ''}",
+                f"{min(100.0 * (ratio[j] - 1.0), 1e300):.3g} %{hint() if hint else ''}",
                 joint=j,
                 extra={"limit": kind, "ratio": float(ratio[j])},
             )

@@ -94,25 +94,25 @@ class CartesianTaskSpec(StrictModel):
     )
     duration: float | None = Field(
         default=None,
-        gt=0,
+        ge=1e-3,
         le=MAX_DURATION,
-        description="Fixed duration [s], 0 < duration <= 1e5 (a quintic s(t)); joint speeds that "
+        description="Fixed duration [s], 1e-3 <= duration <= 1e5 (a quintic s(t)); joint speeds that "
         "would exceed their limits are 422 joint_rate_limit with the s and min_duration. Not "
         "together with max_linear_speed/max_angular_speed.",
     )
     max_linear_speed: float | None = Field(
         default=None,
-        gt=0,
+        ge=1e-6,
         le=MAX_LINEAR_SPEED,
-        description="Tool speed limit [m/s], 0 < v <= 10. Without duration and speed limits: 0.25 "
+        description="Tool speed limit [m/s], 1e-6 <= v <= 10. Without duration and speed limits: 0.25 "
         "m/s and 1 rad/s. Tool accelerations: 1 m/s^2 and 2 rad/s^2. The planner slows down further "
         "where joint velocity or acceleration limits need it (a warning says where).",
     )
     max_angular_speed: float | None = Field(
         default=None,
-        gt=0,
+        ge=1e-6,
         le=MAX_ANGULAR_SPEED,
-        description="Tool angular speed limit [rad/s], 0 < w <= 100.",
+        description="Tool angular speed limit [rad/s], 1e-6 <= w <= 100.",
     )
     sample_period: float | None = Field(
         default=None,

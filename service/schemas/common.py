@@ -37,8 +37,11 @@ class StrictModel(BaseModel):
 Position = Annotated[float, Field(ge=-MAX_POSITION, le=MAX_POSITION)]
 Velocity = Annotated[float, Field(ge=-MAX_VELOCITY, le=MAX_VELOCITY)]
 Acceleration = Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]
-PositiveVelocity = Annotated[float, Field(gt=0, le=MAX_VELOCITY)]
-PositiveAcceleration = Annotated[float, Field(gt=0, le=MAX_ACCELERATION)]
+MIN_LIMIT = 1e-6
+"""Smallest joint velocity [rad/s or m/s] or acceleration [rad/s^2 or m/s^2] limit accepted: a
+positive limit below it is no physical limit, and its ratios overflow."""
+PositiveVelocity = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_VELOCITY)]
+PositiveAcceleration = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_ACCELERATION)]
 
 JointPositions = Annotated[
     list[Position],
@@ -88,13 +91,13 @@ class Limits(StrictModel):
         default=None,
         min_length=1,
         max_length=MAX_JOINTS,
-        description="Speed limits [rad/s or m/s], > 0.",
+        description="Speed limits [rad/s or m/s], 1e-6 to 1e4.",
     )
     acceleration: list[PositiveAcceleration] | None = Field(
         default=None,
         min_length=1,
         max_length=MAX_JOINTS,
-        description="Acceleration limits [rad/s^2 or m/s^2], > 0.",
+        description="Acceleration limits [rad/s^2 or m/s^2], 1e-6 to 1e6.",
     )
 
 
