@@ -10,10 +10,6 @@ passes but the segment strays elsewhere, and every failure code.
 
 from __future__ import annotations
 
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
@@ -43,7 +39,6 @@ from core.line import StraightLine
 from core.trajectory import Trajectory
 from tests.toy_kinematics import ToyPlanar2R
 
-ROOT = Path(__file__).resolve().parents[2]
 CHECKS = 12
 """Points checked between two consecutive returned samples (the API promises at least 10)."""
 
@@ -489,19 +484,6 @@ def test_knot_path_interpolates_the_knots_and_is_c2():
 
 
 # --- examples and sweeps -------------------------------------------------------------------------
-
-
-def test_example_runs():
-    pytest.importorskip("robots.registry")
-    done = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "ur5_bounded_deviation.py")],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert done.stdout.rstrip().endswith("OK")
 
 
 @pytest.mark.slow

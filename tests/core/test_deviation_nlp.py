@@ -4,10 +4,7 @@ the diagnostics), fewer knots than Taylor's method on the issue's UR5 move, and 
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -46,8 +43,6 @@ from tests.core.test_bounded_deviation import (
     xy,
 )
 from tests.toy_kinematics import ToyPlanar2R
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 class SymbolicToy(ToyPlanar2R):
@@ -294,19 +289,6 @@ def test_unreachable_and_partial_prefix():
     line = CartesianTask(arm, q0, xy(-0.5, 0.05)).line()
     pos, _ = independent_deviation(arm, line, partial.trajectory)
     assert pos <= 1e-3
-
-
-def test_example_runs():
-    pytest.importorskip("robots.registry")
-    done = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "ur5_bounded_deviation_nlp.py")],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert done.stdout.rstrip().endswith("OK")
 
 
 @pytest.mark.slow
