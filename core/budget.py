@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from core.exceptions import TimeBudgetExceeded
+from core.errors import TimeBudgetExceeded
 
 
 class Deadline:

@@ -31,7 +31,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian_task import CartesianResult, CartesianTask, finish, validated_line
-from core.exceptions import (
+from core.errors import (
     BranchFlip,
     JointLimit,
     PlanningError,

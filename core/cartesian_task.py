@@ -17,7 +17,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.deviation import DeviationReport, measure_deviation
-from core.exceptions import InputError, JointLimit, JointRateLimit
+from core.errors import InputError, JointLimit, JointRateLimit
 from core.kinematics import Kinematics, jacobians, task_rows
 from core.line import StraightLine
 from core.trajectory import Trajectory

@@ -25,7 +25,7 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 from scipy.spatial.transform import Rotation
 
 from core.budget import NO_DEADLINE, Deadline
-from core.exceptions import (
+from core.errors import (
     BranchFlip,
     Infeasible,
     JointLimit,

@@ -73,7 +73,7 @@ from core.deviation import (
     skew,
     taylor_knots,
 )
-from core.exceptions import InputError, NoConvergence, TimeBudgetExceeded
+from core.errors import InputError, NoConvergence, TimeBudgetExceeded
 from core.kinematics import Kinematics
 from core.line import StraightLine
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.exceptions import InputError, JointLimit, JointRateLimit
+from core.errors import InputError, JointLimit, JointRateLimit
 
 RATE_TOLERANCE = 1e-9
 """Relative slack when a sampled plan is checked against velocity/acceleration limits."""

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from core.exceptions import Infeasible, InputError, JointRateLimit, Singularity
+from core.errors import Infeasible, InputError, JointRateLimit, Singularity
 from core.line import StraightLine
 from core.path_timing import QuinticTiming, joint_speed_cap, speed_limited
 from core.trajectory import Trajectory, sample_times

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.exceptions import InputError
+from core.errors import InputError
 
 DEFAULT_LINEAR_ACCELERATION = 1.0
 """Tool acceleration [m/s^2] used with ``max_linear_speed`` when the request gives none."""

@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from core import timing
-from core.exceptions import InputError, JointRateLimit
+from core.errors import InputError, JointRateLimit
 from core.limits import (
     JointLimits,
     check_boundary_rates,

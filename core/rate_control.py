@@ -51,7 +51,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from core.cartesian_task import CartesianResult, CartesianTask, validated_line
-from core.exceptions import (
+from core.errors import (
     InputError,
     JointLimit,
     JointRateLimit,

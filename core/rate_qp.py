@@ -46,7 +46,7 @@ import qpsolvers
 import scipy.sparse as sp
 from scipy.optimize import lsq_linear
 
-from core.exceptions import InputError, NoConvergence
+from core.errors import InputError, NoConvergence
 
 SINGULAR_REGION = 0.05
 """epsilon: damping starts when the smallest singular value of the task Jacobian falls below it."""

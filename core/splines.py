@@ -21,7 +21,7 @@ from scipy.interpolate import CubicSpline
 
 from core import timing
 from core.budget import NO_DEADLINE, Deadline
-from core.exceptions import InputError, JointRateLimit, PlanningError
+from core.errors import InputError, JointRateLimit, PlanningError
 from core.limits import (
     JointLimits,
     check_boundary_rates,

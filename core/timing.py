@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from core.exceptions import Infeasible
+from core.errors import Infeasible
 
 MIN_DURATION = 1e-3
 """Shortest trajectory the planners return [s]; a plan that needs less (no motion) is stretched."""

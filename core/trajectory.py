@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from core.exceptions import InputError, TooLarge
+from core.errors import InputError, TooLarge
 
 MAX_POINTS = 100_000
 """Most points one trajectory (one response) may hold."""

@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 from fastapi.testclient import TestClient  # noqa: E402
 from scipy.spatial.transform import Rotation, Slerp  # noqa: E402
 
-from core.rotations import pose_to_matrix  # noqa: E402
+from core.geometry.so3 import pose_to_matrix  # noqa: E402
 from robots import registry  # noqa: E402
 from service.app import create_app  # noqa: E402
 from service.settings import Settings  # noqa: E402

@@ -23,7 +23,7 @@ from _common import (
 )  # puts the repo on the path
 from scipy.spatial.transform import Rotation
 
-from core.rotations import matrix_to_quat
+from core.geometry.so3 import matrix_to_quat
 from robots import registry
 
 HOME = [0.0, -math.pi / 3, math.pi / 2, -2 * math.pi / 3, -math.pi / 2, 0.0]

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from core.exceptions import InvalidURDF
+from core.errors import InvalidURDF
 
 
 def _ro(a: np.ndarray) -> np.ndarray:

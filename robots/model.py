@@ -18,7 +18,7 @@ from types import MappingProxyType
 import numpy as np
 import pinocchio as pin
 
-from core.exceptions import InputError, UnknownFrame
+from core.errors import InputError, UnknownFrame
 from core.kinematics import TASK_SPACES, IKResult, task_rows
 from robots import ik as _ik
 from robots.chain import Chain

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from core.exceptions import InputError, InvalidURDF, UnknownRobot
+from core.errors import InputError, InvalidURDF, UnknownRobot
 from robots import ik as _ik
 from robots.model import Robot
 from robots.urdf_screen import screen_urdf

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import defusedxml.ElementTree as DET
 from defusedxml import DefusedXmlException
 
-from core.exceptions import InvalidURDF, TooLarge
+from core.errors import InvalidURDF, TooLarge
 
 MAX_URDF_BYTES = 1024 * 1024
 MAX_JOINTS = 64

@@ -18,7 +18,7 @@ import numpy as np
 
 from core.budget import Deadline
 from core.cartesian_task import CartesianResult, CartesianTask, min_singular_values, plan
-from core.exceptions import InputError, JointLimit, PlanningError, TooLarge
+from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body

@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from starlette.responses import Response
 
-from core.exceptions import InputError
+from core.errors import InputError
 from core.limits import JointLimits
 from core.point_to_point import PointToPoint
 from core.trajectory import Trajectory, default_joint_names

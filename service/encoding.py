@@ -14,7 +14,7 @@ import numpy as np
 import orjson
 from starlette.responses import Response, StreamingResponse
 
-from core.exceptions import Infeasible
+from core.errors import Infeasible
 from core.trajectory import Trajectory
 
 JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY

@@ -16,7 +16,7 @@ from fastapi.exceptions import RequestValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
-from core import exceptions as ex
+from core import errors as ex
 from service import metrics
 
 log = logging.getLogger("service.errors")

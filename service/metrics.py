@@ -36,7 +36,7 @@ from prometheus_client.process_collector import ProcessCollector
 from prometheus_client.registry import Collector
 from starlette.responses import Response
 
-from core import exceptions as ex
+from core import errors as ex
 
 MULTIPROC_DIR = os.environ.get("PROMETHEUS_MULTIPROC_DIR") or None
 """Multiprocess mode is decided once, at import, exactly as prometheus_client decides it."""

@@ -15,7 +15,7 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from core.cartesian_task import METHODS
-from core.exceptions import PlanningError
+from core.errors import PlanningError
 from robots import registry
 from service import cartesian_convert
 from service.encoding import json_response

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from fastapi import APIRouter, Path
 
-from core.exceptions import InputError, JointLimit, Unreachable
+from core.errors import InputError, JointLimit, Unreachable
 from robots import ik as robot_ik
 from robots import registry
 from robots.model import Robot

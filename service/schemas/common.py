@@ -13,7 +13,7 @@ import numpy as np
 from fastapi import Query
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from core.rotations import QUAT_NORM_TOLERANCE, matrix_to_pose, pose_to_matrix
+from core.geometry.so3 import QUAT_NORM_TOLERANCE, matrix_to_pose, pose_to_matrix
 
 MAX_JOINTS = 64
 MAX_POSITION = 1e4

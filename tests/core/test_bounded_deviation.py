@@ -25,7 +25,7 @@ from core.deviation import (
     reference_at,
     taylor_knots,
 )
-from core.exceptions import (
+from core.errors import (
     BranchFlip,
     Infeasible,
     InputError,

@@ -23,7 +23,7 @@ from core.cartesian import (
     walk_line,
 )
 from core.cartesian_task import CartesianTask, plan
-from core.exceptions import (
+from core.errors import (
     BranchFlip,
     Infeasible,
     InputError,
@@ -431,7 +431,7 @@ def test_walk_refines_near_trouble():
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["planar_2r", "puma560", "ur5", "panda"])
 def test_random_lines_are_valid_or_located_failures(name):
-    from core.exceptions import PlanningError
+    from core.errors import PlanningError
 
     robot = registry.get(name)
     rng = np.random.default_rng(7)

@@ -25,7 +25,7 @@ from core.deviation_nlp import (
     solve_knot_nlp,
     spline_equations,
 )
-from core.exceptions import (
+from core.errors import (
     BranchFlip,
     InputError,
     JointLimit,

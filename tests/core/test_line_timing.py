@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from core.cartesian_task import CartesianTask
-from core.exceptions import JointRateLimit, Singularity
+from core.errors import JointRateLimit, Singularity
 from core.line_timing import (
     MIN_SPEED_FRACTION,
     QuinticPath,

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from core.budget import Deadline
 from core.cartesian_task import CartesianTask, plan
-from core.exceptions import (
+from core.errors import (
     InputError,
     JointLimit,
     JointRateLimit,

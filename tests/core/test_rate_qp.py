@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from core.exceptions import InputError
+from core.errors import InputError
 from core.kinematics import task_rows
 from core.rate_qp import (
     MAX_DAMPING,

@@ -8,7 +8,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from core.budget import Deadline
-from core.exceptions import InputError, JointLimit, JointRateLimit, TimeBudgetExceeded
+from core.errors import InputError, JointLimit, JointRateLimit, TimeBudgetExceeded
 from core.limits import JointLimits
 from core.polynomials import PolynomialProfile
 from core.splines import BOUNDARIES, SplineProfile, allocate_times, plan_spline

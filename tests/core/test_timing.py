@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core import timing
-from core.exceptions import Infeasible, InputError, JointLimit, JointRateLimit
+from core.errors import Infeasible, InputError, JointLimit, JointRateLimit
 from core.limits import JointLimits
 from core.point_to_point import PROFILES, PointToPoint, build_profile, plan_joint
 from core.timing import shortest_feasible
@@ -208,7 +208,7 @@ def test_position_limits() -> None:
 
 
 def test_too_many_points_before_allocating() -> None:
-    from core.exceptions import TooLarge
+    from core.errors import TooLarge
 
     motion = PointToPoint.create([0.0], [1.0])
     with pytest.raises(TooLarge):

@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from core.rotations import rotation_angle
+from core.geometry.so3 import rotation_angle
 from robots import ik as robot_ik
 from robots import registry
 from tests.robots.inline_urdfs import PLANAR_3R_URDF

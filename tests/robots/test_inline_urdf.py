@@ -8,7 +8,7 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from core.exceptions import InvalidURDF, TooLarge
+from core.errors import InvalidURDF, TooLarge
 from robots import registry, urdf_screen
 from tests.robots.inline_urdfs import OFFSET_BASE_URDF, chain, joint, robot
 

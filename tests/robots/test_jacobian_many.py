@@ -38,7 +38,7 @@ def test_jacobians_helper_agrees_below_and_above_the_threshold() -> None:
 
 
 def test_jacobian_many_rejects_a_wrong_shape() -> None:
-    from core.exceptions import InputError
+    from core.errors import InputError
 
     with pytest.raises(InputError):
         registry.get("ur5").jacobian_many(np.zeros((3, 5)))

@@ -166,7 +166,7 @@ def test_home_is_inside_limits_and_away_from_singularities(name: str) -> None:
 
 
 def test_registry_names_and_unknown_robot() -> None:
-    from core.exceptions import UnknownRobot
+    from core.errors import UnknownRobot
 
     assert registry.names() == ["panda", "planar_2r", "puma560", "ur5"]
     with pytest.raises(UnknownRobot) as err:

@@ -15,7 +15,7 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation, Slerp
 
-from core.rotations import matrix_to_quat
+from core.geometry.so3 import matrix_to_quat
 from robots import registry
 from service.app import create_app
 from service.settings import Settings

@@ -41,7 +41,7 @@ from core import cartesian_task
 from core.budget import Deadline
 from core.cartesian_task import MEASURE_CHUNK, CartesianTask, measure
 from core.deviation import measure_deviation
-from core.exceptions import TimeBudgetExceeded
+from core.errors import TimeBudgetExceeded
 from robots import registry
 from service.app import create_app
 from service.settings import Settings

@@ -14,7 +14,7 @@ from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
 from core.cartesian_task import METHODS
-from core.rotations import pose_to_matrix
+from core.geometry.so3 import pose_to_matrix
 from robots import registry
 from service.app import create_app
 from service.schemas.cartesian import Method

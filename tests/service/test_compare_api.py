@@ -21,7 +21,7 @@ def _ur5_task(**extra):
     q0 = ur5.home
     T = ur5.fk(q0)
     T[:3, 3] += [0.05, 0.05, -0.03]
-    from core.rotations import matrix_to_pose
+    from core.geometry.so3 import matrix_to_pose
 
     position, orientation = matrix_to_pose(T)
     task = {

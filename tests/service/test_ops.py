@@ -23,7 +23,7 @@ from fastapi import APIRouter
 from fastapi.testclient import TestClient
 from prometheus_client.parser import text_string_to_metric_families
 
-from core import exceptions as ex
+from core import errors as ex
 from service.__main__ import multiprocess_metrics_dir
 from service.app import create_app
 from service.logging_setup import JsonFormatter, TextFormatter, log_config, request_id_from

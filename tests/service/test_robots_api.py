@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core.rotations import quat_to_matrix
+from core.geometry.so3 import quat_to_matrix
 from robots import registry
 from service.app import create_app
 from service.routes import robots as robots_route

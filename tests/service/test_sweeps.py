@@ -39,7 +39,7 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
-from core.rotations import pose_to_matrix
+from core.geometry.so3 import pose_to_matrix
 from robots import registry
 from service.app import create_app
 from service.settings import Settings
