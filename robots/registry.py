@@ -38,7 +38,7 @@ import numpy as np
 import pinocchio as pin
 
 from core.errors import InputError, InvalidURDF, UnknownRobot
-from robots import ik as _ik
+from robots import ik_numeric as _ik
 from robots.model import Robot
 from robots.urdf_screen import screen_urdf
 
