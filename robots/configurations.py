@@ -12,13 +12,16 @@ PUMA 560)). With ``z_k`` joint k's axis, ``o_k`` a point on it, ``w`` the point 
 ``c`` (``c`` itself for a spherical wrist):
 
 - shoulder ``s = ((z_2 x z_1) . (c - o_1))``: which side of the plane through axis 1 parallel to
-  axis 2 holds ``c``; ``right`` when s >= 0, else ``left`` (zero: shoulder singularity).
-- elbow ``e = sign(s) * (((o_3 - o_2) x (w - o_3)) . z_2)``: which way the arm bends at the elbow,
-  seen along axis 2 (zero: stretched or folded, the elbow singularity); ``up`` when e >= 0.
+  axis 2 holds ``c``; ``right`` when s < 0, else ``left`` (zero: shoulder singularity).
+- elbow ``e = sign(s) * (((o_3 - o_2) x (w - o_3)) . z_2)`` (sign(0) = 1): which way the arm bends at
+  the elbow, seen along axis 2 (zero: stretched or folded, the elbow singularity); ``up`` when
+  e >= 0, else ``down``.
 - wrist ``f = (z_4 x z_6) . z_5``: sin of the wrist bend (zero: axes 4 and 6 aligned, the wrist
-  singularity); ``noflip`` when f >= 0, else ``flip``.
+  singularity); ``noflip`` when f < 0, else ``flip``.
 
-Label ``"{shoulder}-{elbow}-{wrist}"``, e.g. ``"right-up-noflip"``; 8 labels.
+Label ``"{shoulder}-{elbow}-{wrist}"``, e.g. ``"right-up-noflip"``; 8 labels. The signs are chosen so
+that the PUMA 560's labels are Corke's (Robotics Toolbox ``ikine_a`` configuration letters: ``lun``
+is ``left-up-noflip``), checked in tests/robots/test_ik_all.py.
 
 ``planar_2r`` (two revolute joints moving the tip in the plane normal to axis 1): elbow
 ``e = ((o_2 - o_1) x (p - o_2)) . z_1`` with ``p`` the tip; ``down`` when e >= 0 (for the shipped arm
@@ -127,8 +130,8 @@ def labels(chain: Chain, fam: str | None, qs: np.ndarray) -> list[str | None]:
     if fam == PLANAR_2R:
         return ["down" if e >= 0 else "up" for e in v[:, 0]]
     return [
-        f"{'right' if s >= 0 else 'left'}-{'up' if e >= 0 else 'down'}-"
-        f"{'noflip' if f >= 0 else 'flip'}"
+        f"{'right' if s < 0 else 'left'}-{'up' if e >= 0 else 'down'}-"
+        f"{'noflip' if f < 0 else 'flip'}"
         for s, e, f in v
     ]
 
