@@ -59,6 +59,8 @@ class IKSolutions:
         orientation_errors: ``(k,)`` orientation error [rad] (<= 1e-9; 0 for ``position_xy``).
         solver: ``"analytic"`` or ``"numeric"``.
         warnings: Human-readable notes (near-singular pose: the solutions are representatives).
+        outside_limits: Distinct solutions (modulo 2 pi) that reproduce the pose but lie outside the
+            joint limits in every turn (0 when none were dropped for that).
     """
 
     positions: np.ndarray
@@ -67,6 +69,7 @@ class IKSolutions:
     orientation_errors: np.ndarray
     solver: str
     warnings: tuple[str, ...] = ()
+    outside_limits: int = 0
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -251,9 +254,10 @@ def ik_all(
         for j, v in held.items():
             good &= np.abs(Q[:, j] - v) <= 1e-12
         Q = Q[good]
-    Q = _turns(_dedupe(Q, robot.revolute), seed, robot.position_limits, robot.revolute, turns)
-    if not turns:
-        Q = _dedupe(Q, robot.revolute)
+    Q = _dedupe(Q, robot.revolute)
+    inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
+    outside = len(Q) - len(inside)
+    Q = _turns(Q, seed, robot.position_limits, robot.revolute, True) if turns else inside
     order = np.argsort(np.linalg.norm(Q - seed, axis=1), kind="stable")
     Q = Q[order]
     pe, oe = pose_errors(robot, Q, T) if len(Q) else (np.zeros(0), np.zeros(0))
@@ -269,4 +273,4 @@ def ik_all(
                 "returned are representatives"
             )
     labels = tuple(robot.configurations(Q)) if len(Q) else ()
-    return IKSolutions(Q, labels, pe, oe, solver, tuple(warnings))
+    return IKSolutions(Q, labels, pe, oe, solver, tuple(warnings), outside)

@@ -340,6 +340,30 @@ class Robot:
         pin.forwardKinematics(self._model, data, self._q(q))
         return self._T_base_world @ pin.updateFramePlacement(self._model, data, fid).homogeneous
 
+    def reach_origin(self) -> np.ndarray:
+        """A point on the first joint's axis (its origin) in the base frame [m]."""
+        return np.array(self._chain.joint_axes_many(np.zeros((1, self.dof)))[1][0, 0])
+
+    def reach_bound(self) -> float:
+        """An upper bound [m] of the tip's distance from ``reach_origin``: the sum of the distances
+        between consecutive joint origins and from the last one to the tip (prismatic joints add
+        their largest extension)."""
+        _, o, T = self._chain.joint_axes_many(np.zeros((1, self.dof)))
+        pts = np.vstack([o[0], T[0, :3, 3]])
+        travel = np.where(self._revolute, 0.0, np.abs(self._limits).max(axis=1)).sum()
+        return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() + travel)
+
+    def link_frames(self, q: np.ndarray) -> list[tuple[str, np.ndarray]]:
+        """Every link frame's name and ``T_base_frame`` (4, 4) at ``q``, in kinematic order (the
+        model's frame order: each link after its parent)."""
+        data = pin.Data(self._model)
+        pin.framesForwardKinematics(self._model, data, self._q(q))
+        return [
+            (f.name, self._T_base_world @ data.oMf[i].homogeneous)
+            for i, f in enumerate(self._model.frames)
+            if f.type == pin.FrameType.BODY
+        ]
+
     def _frame_id(self, frame: str) -> int:
         if frame not in self.frame_names():
             raise UnknownFrame(
