@@ -122,6 +122,14 @@ class Chain:
         T, _, axes, origins = self._walk_all(np.asarray(qs, dtype=float), jacobian=True)
         return axes.transpose(2, 0, 1), origins.transpose(2, 0, 1), T  # type: ignore[union-attr]
 
+    def kinematics_many(
+        self, qs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``fk_jacobian_many`` and ``joint_axes_many`` from one product: tip poses ``(N, 4, 4)``,
+        Jacobians ``(N, 6, nq)``, joint axes ``(N, n, 3)`` and joint origins ``(N, n, 3)``."""
+        T, J, axes, origins = self._walk_all(np.asarray(qs, dtype=float), jacobian=True)
+        return T, J, axes.transpose(2, 0, 1), origins.transpose(2, 0, 1)  # type: ignore[union-attr, return-value]
+
     def _walk(self, qs: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         T, J, _, _ = self._walk_all(qs, jacobian)
         return T, J

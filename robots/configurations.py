@@ -106,18 +106,34 @@ def _dot(a, b) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of ``(N, 3)`` arrays (cheaper than ``np.cross`` for small N)."""
+    return np.column_stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ]
+    )
+
+
 def signs(chain: Chain, fam: str, qs: np.ndarray) -> np.ndarray:
     """The signed quantities of the family's definition for each row of ``qs`` ``(N, n)``:
     ``(N, 3)`` (s, e, f) for ``wrist_6r``, ``(N, 1)`` (e) for ``planar_2r``."""
     z, o, T = chain.joint_axes_many(np.atleast_2d(qs))
+    return signs_from(fam, z, o, T)
+
+
+def signs_from(fam: str, z: np.ndarray, o: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """``signs`` from joint axes ``z`` and origins ``o`` ``(N, n, 3)`` and tip poses ``T``."""
     if fam == PLANAR_2R:
-        e = _dot(np.cross(o[:, 1] - o[:, 0], T[:, :3, 3] - o[:, 1]), z[:, 0])
+        e = _dot(_cross(o[:, 1] - o[:, 0], T[:, :3, 3] - o[:, 1]), z[:, 0])
         return e[:, None]
     c = _meeting_point(z[:, 4], o[:, 4], z[:, 5], o[:, 5])
     w = o[:, 3] + _dot(c - o[:, 3], z[:, 3])[:, None] * z[:, 3]
-    s = _dot(np.cross(z[:, 1], z[:, 0]), c - o[:, 0])
-    e = np.where(s >= 0, 1.0, -1.0) * _dot(np.cross(o[:, 2] - o[:, 1], w - o[:, 2]), z[:, 1])
-    f = _dot(np.cross(z[:, 3], z[:, 5]), z[:, 4])
+    s = _dot(_cross(z[:, 1], z[:, 0]), c - o[:, 0])
+    e = np.where(s >= 0, 1.0, -1.0) * _dot(_cross(o[:, 2] - o[:, 1], w - o[:, 2]), z[:, 1])
+    f = _dot(_cross(z[:, 3], z[:, 5]), z[:, 4])
     return np.column_stack([s, e, f])
 
 
@@ -126,14 +142,17 @@ def labels(chain: Chain, fam: str | None, qs: np.ndarray) -> list[str | None]:
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
     if fam is None:
         return [None] * len(qs)
-    v = signs(chain, fam, qs)
+    return labels_from(fam, signs(chain, fam, qs))
+
+
+def labels_from(fam: str, v: np.ndarray) -> list[str | None]:
+    """Labels from the signed quantities ``v`` of ``signs``."""
+    table = np.array(LABELS[fam], dtype=object)
     if fam == PLANAR_2R:
-        return ["down" if e >= 0 else "up" for e in v[:, 0]]
-    return [
-        f"{'right' if s < 0 else 'left'}-{'up' if e >= 0 else 'down'}-"
-        f"{'noflip' if f < 0 else 'flip'}"
-        for s, e, f in v
-    ]
+        return table[(v[:, 0] < 0).astype(int)].tolist()
+    # LABELS order: (right, left) x (up, down) x (noflip, flip)
+    index = 4 * (v[:, 0] >= 0) + 2 * (v[:, 1] < 0) + (v[:, 2] >= 0)
+    return table[index.astype(int)].tolist()
 
 
 def margins(chain: Chain, fam: str | None, qs: np.ndarray) -> np.ndarray:

@@ -237,6 +237,29 @@ class Robot:
         nearest ``seed`` (default home) first; see ``robots.ik.ik_all``."""
         return _ik.ik_all(self, T_base_tool, seed, dict(fixed_joints or {}), turns)
 
+    def ik_all_many(self, Ts: np.ndarray, seed: np.ndarray | None = None) -> list[_ik.IKSolutions]:
+        """``ik_all`` for many poses ``(N, 4, 4)`` at once (batched for analytic 6R arms)."""
+        Ts = np.asarray(Ts, dtype=float)
+        if Ts.ndim != 3 or Ts.shape[1:] != (4, 4) or not np.isfinite(Ts).all():
+            raise InputError("ik_all_many needs finite (N, 4, 4) poses", field=("pose",))
+        return _ik.ik_all_many(self, Ts, None if seed is None else self._q(seed, "seed"))
+
+    def ik_many(
+        self, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+    ) -> _ik.IKPath:
+        """IK of many poses ``(N, 4, 4)`` on one configuration branch (default the seed's label),
+        batched for analytic 6R arms; see ``robots.ik.ik_many``."""
+        Ts = np.asarray(Ts, dtype=float)
+        if Ts.ndim != 3 or Ts.shape[1:] != (4, 4) or not np.isfinite(Ts).all():
+            raise InputError("ik_many needs finite (N, 4, 4) poses", field=("pose",))
+        if configuration is not None and configuration not in self.configuration_labels:
+            raise InputError(
+                "unknown configuration label",
+                field=("configuration",),
+                extra={"configurations": list(self.configuration_labels)},
+            )
+        return _ik.ik_many(self, Ts, self._q(seed, "seed"), configuration)
+
     def ik_from(
         self,
         T_base_tool: np.ndarray,

@@ -271,3 +271,69 @@ def test_labels_are_listed_and_planar_up_down() -> None:
     assert planar.configuration(np.array([0.2, 0.5])) == "down"
     assert planar.configuration(np.array([0.2, -0.5])) == "up"
     assert registry.get("panda").configuration_labels == ()
+
+
+@pytest.mark.parametrize("name", ["ur5", "puma560", "panda"])
+def test_batched_ik_all_equals_one_pose_at_a_time(name: str) -> None:
+    robot = registry.get(name)
+    qs = random_q(robot, 150, seed=21)
+    Ts = robot.fk_many(qs)
+    many = robot.ik_all_many(Ts, robot.home)
+    for T, batch in zip(Ts, many, strict=True):
+        one = robot.ik_all(T, robot.home)
+        assert len(batch) == len(one) and batch.configurations == one.configurations
+        assert np.abs(batch.positions - one.positions).max(initial=0) <= 1e-12
+        assert batch.solver == one.solver
+
+
+def line_poses(robot, q0: np.ndarray, q1: np.ndarray, n: int) -> np.ndarray:
+    """Poses on the straight line from FK(q0) to FK(q1), orientation by slerp (scipy)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    A, B = robot.fk(q0), robot.fk(q1)
+    s = np.linspace(0, 1, n)
+    Ts = np.zeros((n, 4, 4))
+    Ts[:, :3, :3] = Slerp([0, 1], Rotation.from_matrix([A[:3, :3], B[:3, :3]]))(s).as_matrix()
+    Ts[:, :3, 3] = A[:3, 3] + s[:, None] * (B[:3, 3] - A[:3, 3])
+    Ts[:, 3, 3] = 1
+    return Ts
+
+
+def test_ik_many_follows_the_start_configuration_along_a_line() -> None:
+    robot = registry.get("ur5")
+    q0 = np.array([0.0, -1.0, 1.5, -2.0, -1.5, 0.3])
+    Ts = line_poses(robot, q0, np.array([0.6, -1.3, 1.9, -2.3, -1.2, 0.8]), 200)
+    path = robot.ik_many(Ts, q0)
+    assert path.solver == "analytic" and path.found.all() and path.within_limits.all()
+    assert path.configuration == robot.configuration(q0)
+    assert set(robot.configurations(path.positions)) == {path.configuration}
+    assert robot_ik.pose_errors_many(robot, path.positions, Ts)[0].max() <= 1e-9
+    assert np.abs(np.diff(np.vstack([q0, path.positions]), axis=0)).max() < 0.05  # no jump
+    # the same as damped Newton from the previous sample, sample by sample
+    previous, numeric = q0, []
+    for T in Ts:
+        previous = robot.ik(T, previous, position_tolerance=1e-11, orientation_tolerance=1e-11)[0]
+        numeric.append(previous)
+    assert np.abs(np.array(numeric) - path.positions).max() <= 1e-8
+    # another branch on request: every row carries it
+    other = robot.ik_many(Ts, q0, configuration="right-down-flip")
+    assert set(robot.configurations(other.positions[other.found])) <= {"right-down-flip"}
+
+
+def test_ik_many_marks_poses_without_the_label() -> None:
+    """A line running out of reach: the start's branch ends (it merges with another at a
+    singularity, or the pose leaves the workspace); ``found`` says where."""
+    robot = registry.get("ur5")
+    q0 = np.array([0.0, -1.0, 1.5, -2.0, -1.5, 0.3])
+    T0 = robot.fk(q0)
+    far = T0.copy()
+    far[:3, 3] = [2.0, 0.0, 0.4]
+    s = np.linspace(0, 1, 101)
+    Ts = np.repeat(T0[None], len(s), axis=0)
+    Ts[:, :3, 3] = T0[:3, 3] + s[:, None] * (far[:3, 3] - T0[:3, 3])
+    path = robot.ik_many(Ts, q0)
+    # found exactly where the start's label is among the pose's solutions; none at the far end
+    for T, found in zip(Ts, path.found, strict=True):
+        assert found == (path.configuration in robot.ik_all(T, q0).configurations)
+    assert path.found[:10].all() and not path.found[-10:].any()
+    assert all(len(robot.ik_all(T)) == 0 for T in Ts[-10:])
