@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, StringConstraints
 
 from service.schemas.common import JointPositions, Pose, Position, RobotRef, StrictModel
 
@@ -119,7 +119,9 @@ class IKRequest(StrictModel):
         default=False,
         description="With all: also every 2 pi variant of each solution within the limits.",
     )
-    fixed_joints: dict[str, Position] | None = Field(
+    fixed_joints: (
+        dict[Annotated[str, StringConstraints(min_length=1, max_length=256)], Position] | None
+    ) = Field(
         default=None,
         max_length=64,
         description="Values [rad or m] of redundant joints to hold (default: the seed's values).",

@@ -337,3 +337,20 @@ def test_ik_many_marks_poses_without_the_label() -> None:
         assert found == (path.configuration in robot.ik_all(T, q0).configurations)
     assert path.found[:10].all() and not path.found[-10:].any()
     assert all(len(robot.ik_all(T)) == 0 for T in Ts[-10:])
+
+
+def test_turns_on_continuous_joints_are_bounded() -> None:
+    from tests.robots.inline_urdfs import joint, robot
+
+    urdf = robot(
+        joint("a", "b0", "b1", "continuous", axis="0 0 1"),
+        joint("b", "b1", "b2", "continuous", xyz="1 0 0", axis="0 0 1"),
+        joint("t", "b2", "tip", "fixed", xyz="0.8 0 0"),
+        links=["b0", "b1", "b2", "tip"],
+    )
+    r = registry.load_inline(urdf, "tip", "b0")
+    T = r.fk(np.array([0.3, 0.9]))
+    assert len(r.ik_all(T)) == 2  # both elbows, each once
+    with pytest.raises(InputError) as err:
+        r.ik_all(T, turns=True)
+    assert err.value.field == ("turns",)

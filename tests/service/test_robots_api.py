@@ -342,6 +342,8 @@ def test_fixed_joints(client: TestClient) -> None:
         ({"nope": 0.1}, 422, "validation", ["body", "fixed_joints", "nope"]),
         ({"panda_joint2": 0.1}, 422, "validation", ["body", "fixed_joints", "panda_joint2"]),
         ({"panda_joint7": 3.5}, 422, "joint_limit", ["body", "fixed_joints", "panda_joint7"]),
+        ({"x" * 300: 0.1}, 422, "validation", None),
+        ({"panda_joint7": 1e9}, 422, "validation", None),
     ]
     for fixed, status, code, loc in cases:
         err = problem(
@@ -349,7 +351,7 @@ def test_fixed_joints(client: TestClient) -> None:
             status,
             code,
         )
-        assert err["errors"][0]["loc"] == loc
+        assert loc is None or err["errors"][0]["loc"] == loc
     err = problem(
         client.post("/v1/robots/ur5/ik", json={"pose": pose, "fixed_joints": {"wrist_3_joint": 0}}),
         422,
