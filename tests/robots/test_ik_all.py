@@ -354,3 +354,69 @@ def test_turns_on_continuous_joints_are_bounded() -> None:
     with pytest.raises(InputError) as err:
         r.ik_all(T, turns=True)
     assert err.value.field == ("turns",)
+
+
+def hawkins_count(T: np.ndarray) -> int | None:
+    """Independent count of the UR5's real IK solutions (Hawkins 2013, "Analytic inverse kinematics
+    for the Universal Robots UR-5/UR-10 arms"): 2 shoulder roots x 2 wrist roots x 2 elbow roots,
+    each pair real or not. None when a root sits within 1e-6 of the boundary (degenerate)."""
+    d1, a2, a3, d4, d5, d6 = 0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823
+    d, a, alpha = (
+        [d1, 0, 0, d4, d5, d6],
+        [0, a2, a3, 0, 0, 0],
+        [math.pi / 2, 0, 0, math.pi / 2, -math.pi / 2, 0],
+    )
+
+    def dh(i: int, theta: float) -> np.ndarray:
+        ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha[i]), math.sin(alpha[i])
+        return np.array(
+            [
+                [ct, -st * ca, st * sa, a[i] * ct],
+                [st, ct * ca, -ct * sa, a[i] * st],
+                [0, sa, ca, d[i]],
+                [0, 0, 0, 1],
+            ]
+        )
+
+    p05 = T @ np.array([0, 0, -d6, 1])
+    r = math.hypot(p05[0], p05[1])
+    if abs(d4 / r - 1) < 1e-6:
+        return None
+    if d4 > r:
+        return 0
+    psi, phi = math.atan2(p05[1], p05[0]), math.acos(d4 / r)
+    count = 0
+    for q1 in (psi + phi + math.pi / 2, psi - phi + math.pi / 2):
+        c5 = (T[0, 3] * math.sin(q1) - T[1, 3] * math.cos(q1) - d4) / d6
+        if abs(abs(c5) - 1) < 1e-6:
+            return None
+        if abs(c5) > 1:
+            continue
+        for q5 in (math.acos(c5), -math.acos(c5)):
+            T60 = np.linalg.inv(T)
+            s5 = math.sin(q5)
+            q6 = math.atan2(
+                (-T60[1, 0] * math.sin(q1) + T60[1, 1] * math.cos(q1)) / s5,
+                (T60[0, 0] * math.sin(q1) - T60[0, 1] * math.cos(q1)) / s5,
+            )
+            T14 = np.linalg.inv(dh(0, q1)) @ T @ np.linalg.inv(dh(4, q5) @ dh(5, q6))
+            p13 = T14 @ np.array([0, -d4, 0, 1]) - np.array([0, 0, 0, 1])
+            c3 = (p13[:3] @ p13[:3] - a2 * a2 - a3 * a3) / (2 * a2 * a3)
+            if abs(abs(c3) - 1) < 1e-6:
+                return None
+            count += 2 if abs(c3) < 1 else 0
+    return count
+
+
+def test_ur5_solution_count_equals_the_independent_closed_form_count() -> None:
+    robot = registry.get("ur5")
+    qs = np.random.default_rng(17).uniform(-math.pi, math.pi, (300, 6))
+    checked = 0
+    for q in qs:
+        T = robot.fk(q)
+        expected = hawkins_count(T)
+        if expected is None:
+            continue
+        assert len(raw_solutions(robot, T)) == expected
+        checked += 1
+    assert checked >= 290

@@ -275,6 +275,8 @@ def test_ik_all_every_solution_reproduces_the_pose(client: TestClient, name: str
         assert np.linalg.norm(Tx[:3, 3] - T[:3, 3]) <= 1e-9
         assert np.abs(Tx[:3, :3] - T[:3, :3]).max() <= 1e-9
         assert s["configuration"] == robot.configuration(x)
+        fk = client.post(f"/v1/robots/{name}/fk", json={"positions": s["positions"]}).json()
+        assert fk["configuration"] == s["configuration"]
         assert s["position_error"] <= 1e-9 and s["orientation_error"] <= 1e-9
     labels = [s["configuration"] for s in sols]
     assert len(set(labels)) == len(labels)
