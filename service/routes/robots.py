@@ -231,7 +231,8 @@ def _no_solution(
             extra={"joint_name": robot.joint_names[j]},
         )
     reach = robot.reach_bound()
-    distance = float(np.linalg.norm(T[:3, 3] - robot.reach_origin()))
+    axes = 2 if robot.task_space == "position_xy" else 3  # planar arms: the distance in x, y
+    distance = float(np.linalg.norm((T[:3, 3] - robot.reach_origin())[:axes]))
     raise Unreachable(
         f"no IK solution within 1e-9 m and 1e-9 rad (best residual {result.position_error:.3g} m, "
         f"{result.orientation_error:.3g} rad); the goal is {distance:.3g} m from the first joint, "
