@@ -132,7 +132,10 @@ def _candidates(robot: Robot, T: np.ndarray, seed: np.ndarray, held: dict[int, f
     analytic = robot.analytic_ik
     if analytic is not None:
         value = None if analytic.held is None else held[analytic.held]
-        return np.array(analytic.solve(T, value)), "analytic"
+        try:
+            return np.array(analytic.solve(T, value)), "analytic"
+        except (RuntimeError, ValueError):  # EAIK refusing a held value: solve numerically
+            pass
     if robot.planar_closed_form is not None:
         q = robot.planar_closed_form(T[:2, 3], seed)[0]
         return np.array([q, _planar_mirror(robot, q)]), "analytic"
