@@ -407,3 +407,14 @@ def test_shared_link_and_joint_name_through_the_api(client: TestClient) -> None:
     )
     assert ik.status_code == 200, ik.text
     np.testing.assert_allclose(ik.json()["positions"], Q6, atol=1e-7)
+
+
+def test_singular_pose_answers_representatives_with_a_warning(client: TestClient) -> None:
+    q = [0.3, -1.2, 1.8, -2.2, 0.0, 0.4]  # UR5 wrist singular: q5 = 0
+    pose = pose_of("ur5", q)
+    body = client.post("/v1/robots/ur5/ik", json={"pose": pose, "all": True}).json()
+    assert body["solutions"] and "singular" in body["warnings"][0]
+    one = client.post("/v1/robots/ur5/ik", json={"pose": pose, "seed": q}).json()
+    assert one["warnings"] and one["position_error"] <= 1e-9
+    generic = client.post("/v1/robots/ur5/ik", json={"pose": pose_of("ur5", UR5_Q)}).json()
+    assert generic["warnings"] == []
