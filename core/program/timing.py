@@ -9,8 +9,9 @@ is continuous across pieces that meet with a continuous tangent. Then:
    each joint's acceleration limit for the curvature term |d2q/ds2| s'^2 (another cap on s') and
    half for |dq/ds| |s''|, and the tool's linear/angular speed and acceleration limits on LIN/CIRC
    samples. A sharp corner (large d2q/ds2) slows the motion; a shallow one barely.
-2. A quintic spline q(t) through the samples at their times (scipy ``make_interp_spline``, k = 5,
-   zero velocity and acceleration at both ends): q, q', q'' continuous everywhere, at rest at the
+2. A quintic spline s(t) through the timed grid (scipy ``make_interp_spline``, k = 5, zero s' and
+   s'' at both ends) and the path q(s) as a C2 cubic spline through the samples: q(t) = q(s(t)) has
+   q, q', q'' continuous everywhere, stays on the sampled path's geometry, and is at rest at the
    chunk's ends, so chunks join with continuous q'' too.
 3. A dense check (``CHECKS_PER_INTERVAL`` per knot interval) of joint velocity and acceleration
    against the limits; over them, time is stretched uniformly by the smallest factor that holds
@@ -63,19 +64,31 @@ class ChunkTiming:
         knot_times: Time [s] of each input sample (K,), from 0 to ``duration``.
         duration: Length of the chunk [s].
         stretch: Factor the time-optimal timing was stretched by after the dense check (>= 1).
-        spline: q(tau) in the unstretched time tau = t / stretch.
+        law: s(tau) in the unstretched time tau = t / stretch.
+        path: q(s), a C2 cubic spline through the samples.
     """
 
     knot_times: np.ndarray
     duration: float
     stretch: float
-    spline: BSpline
+    law: BSpline
+    path: CubicSpline
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities, accelerations (N, dof) at times ``t`` (N,) [s]."""
-        k = self.stretch
-        tau = np.clip(np.asarray(t, dtype=float) / k, 0.0, self.spline.t[-1])
-        return self.spline(tau), self.spline(tau, 1) / k, self.spline(tau, 2) / k**2
+        return _evaluate(
+            self.law, self.path, np.asarray(t, dtype=float) / self.stretch, self.stretch
+        )
+
+
+def _evaluate(
+    law: BSpline, path: CubicSpline, tau: np.ndarray, k: float = 1.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    tau = np.clip(tau, 0.0, law.t[-1])
+    s = np.clip(law(tau), 0.0, 1.0)
+    sd, sdd = law(tau, 1) / k, law(tau, 2) / k**2
+    d1 = path(s, 1)
+    return path(s), d1 * sd[:, None], path(s, 2) * (sd**2)[:, None] + d1 * sdd[:, None]
 
 
 def _norm_rows(a: np.ndarray) -> np.ndarray:
@@ -126,13 +139,12 @@ def time_chunk(c: ChunkInput) -> ChunkTiming:
     acc_int = np.where(np.isfinite(acc_int), acc_int, 1e6)
     timing = GridTiming(s, np.minimum(cap, 1e9), acc_int)
     t = timing.t
-    zero = np.zeros(q.shape[1])
-    bc = ([(1, zero), (2, zero)], [(1, zero), (2, zero)])
-    spline = make_interp_spline(t, q, k=5, bc_type=bc)
+    bc = ([(1, 0.0), (2, 0.0)], [(1, 0.0), (2, 0.0)])
+    law = make_interp_spline(t, s, k=5, bc_type=bc)
     # Dense check of the limits between the knots.
     frac = np.arange(CHECKS_PER_INTERVAL) / CHECKS_PER_INTERVAL
     dense = (t[:-1, None] + np.diff(t)[:, None] * frac).ravel()
-    vel, accel = spline(dense, 1), spline(dense, 2)
+    _, vel, accel = _evaluate(law, path, dense)
     v_lim = np.repeat(np.minimum(c.v_max[:-1], c.v_max[1:]), CHECKS_PER_INTERVAL, axis=0)
     a_lim = np.repeat(np.minimum(c.a_max[:-1], c.a_max[1:]), CHECKS_PER_INTERVAL, axis=0)
     ratio_v = float(np.max(np.abs(vel) / v_lim))
@@ -140,5 +152,9 @@ def time_chunk(c: ChunkInput) -> ChunkTiming:
     stretch = max(1.0, ratio_v, np.sqrt(ratio_a)) * (1.0 + 1e-9)
     stretch = 1.0 if stretch <= 1.0 + 2e-9 else stretch
     return ChunkTiming(
-        knot_times=t * stretch, duration=float(t[-1] * stretch), stretch=stretch, spline=spline
+        knot_times=t * stretch,
+        duration=float(t[-1] * stretch),
+        stretch=stretch,
+        law=law,
+        path=path,
     )
