@@ -53,7 +53,7 @@ def layout(task: ProgramTask) -> Layout:
             field=("segments", len(segs) - 1, "blend_radius"),
         )
     T_prev = robot.fk(task.q_start)
-    q_prev = np.asarray(task.q_start, dtype=float)
+    q_prev: np.ndarray | None = np.asarray(task.q_start, dtype=float)
     goals, lengths, active, warnings = [], [], [], []
     for i, seg in enumerate(segs):
         for name in ("velocity_scale", "acceleration_scale"):
@@ -75,8 +75,14 @@ def layout(task: ProgramTask) -> Layout:
             length = dp
         moves = dp >= ZERO_LENGTH or dr >= ZERO_LENGTH
         if seg.type == "ptp" and seg.goal_positions is not None:
-            moves = bool(np.abs(np.asarray(seg.goal_positions) - q_prev).max() >= ZERO_LENGTH)
+            # Joints known so far (only PTPs to joints since the start): compare them too.
+            if q_prev is not None:
+                moves = bool(np.abs(np.asarray(seg.goal_positions) - q_prev).max() >= ZERO_LENGTH)
+            else:
+                moves = True  # another branch may reach the same pose: not skipped
             q_prev = np.asarray(seg.goal_positions, dtype=float)
+        else:
+            q_prev = None
         if moves:
             active.append(i)
         else:

@@ -140,6 +140,12 @@ def walk(
             if isinstance(out, PlanningError):
                 if s_try - s_cur <= MIN_STEP:
                     failure = out
+                    if isinstance(out, Singularity) and _beyond_reach(robot, poses, q, s_try):
+                        failure = Unreachable(
+                            f"no IK solution at s={s_try:.4f}: the path leaves the workspace "
+                            "there (the arm is singular at its edge)",
+                            s=s_try,
+                        )
                 h = 0.5 * (s_try - s_cur)
                 continue
             q, T, J = out
@@ -150,3 +156,21 @@ def walk(
         if failure is not None:
             break
     return Walk(np.array(s_out), np.array(q_out), failure, sigma_min)
+
+
+EDGE_PROBE = 1e-3
+"""How far past a singular point [in s] IK is tried to tell the workspace's edge (Type I)."""
+
+
+def _beyond_reach(robot: Kinematics, poses: PoseFunction, q: np.ndarray, s: float) -> bool:
+    """Whether the path is out of reach ``EDGE_PROBE`` past ``s`` (no IK from ``q`` or from seeds
+    spread over the joint space): a singular point there is the workspace's edge."""
+    T = poses(np.array([min(s + EDGE_PROBE, 1.0)]))[0]
+    lo = np.maximum(robot.position_limits[:, 0], -np.pi)
+    hi = np.minimum(robot.position_limits[:, 1], np.pi)
+    seeds = [q, *np.random.default_rng(0).uniform(lo, hi, (8, len(q)))]
+    for seed in seeds:
+        r = robot.ik(T, seed)
+        if max(r.position_error, r.orientation_error) <= IK_TOLERANCE:
+            return False
+    return True

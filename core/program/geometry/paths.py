@@ -53,11 +53,15 @@ def sample_grid(seg: Segment, path: CartesianPath | None, dq: np.ndarray, cuts: 
             path.angle / (STEP_PER_TOLERANCE * seg.orientation_tolerance),
         )
         n = int(np.clip(np.ceil(n), MIN_INTERVALS, MAX_INTERVALS))
-    grid = np.unique(np.concatenate([np.linspace(0.0, 1.0, n + 1), cuts]))
-    # Drop grid points closer than 1e-9 to a cut (keep the cut).
+    regular = np.linspace(0.0, 1.0, n + 1)
     cuts_a = np.asarray(cuts, dtype=float)
-    near = np.min(np.abs(grid[:, None] - cuts_a[None, :]), axis=1) if len(cuts_a) else grid * 0 + 1
-    keep = (near > 1e-9) | np.isin(grid, cuts_a) | (grid == 0.0) | (grid == 1.0)
+    # Regular points closer than a third of the spacing to a cut go (the cut stays): two samples
+    # much closer than their neighbours would let IK noise bend the path spline between them.
+    if len(cuts_a):
+        near = np.min(np.abs(regular[:, None] - cuts_a[None, :]), axis=1) < 1.0 / (3 * n)
+        regular = regular[~near | (regular == 0.0) | (regular == 1.0)]
+    grid = np.unique(np.concatenate([regular, cuts_a]))
+    keep = np.concatenate([[True], np.diff(grid) > 1e-12])
     return grid[keep]
 
 
