@@ -24,7 +24,8 @@ from core.program.validate import Layout
 from core.program.walk import walk
 
 BLEND_INTERVALS = 40
-"""Samples of a blend (its path is smooth and short)."""
+"""Sample intervals of a blend: as dense as the segments near it, so the path spline through the
+samples stays on the line or arc across the junction (12 intervals let it stray 1.2e-6 m)."""
 BLEND_JOIN = 1e-4
 """Largest joint gap [rad] between a Cartesian blend's IK end and the next segment's samples."""
 

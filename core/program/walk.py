@@ -21,7 +21,6 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import BranchFlip, JointLimit, PlanningError, Singularity, Unreachable
 from core.kinematics import Kinematics, fk_jacobian, task_rows
-from core.line import rotvecs
 
 IK_TOLERANCE = 1e-6
 """Largest IK residual [m] and [rad] accepted as on the path."""
@@ -82,9 +81,16 @@ def walk(
     h = h_max
     s_cur = float(grid[0])
 
-    def step(s_try: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | PlanningError:
-        T_goal = poses(np.array([s_try]))[0]
-        dx = np.concatenate([T_goal[:3, 3] - T[:3, 3], rotvecs(T_goal[:3, :3] @ T[:3, :3].T)[0]])
+    cached = dict(zip(np.asarray(grid, dtype=float).tolist(), poses(np.asarray(grid)), strict=True))
+
+    def step(s_try: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | PlanningError:
+        T_goal = cached.get(s_try)
+        if T_goal is None:
+            T_goal = poses(np.array([s_try]))[0]
+        dR = T_goal[:3, :3] @ T[:3, :3].T
+        # The seed only needs the first-order rotation: vee of the skew part (exact for small steps).
+        w = 0.5 * np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]])
+        dx = np.concatenate([T_goal[:3, 3] - T[:3, 3], w])
         dq = np.linalg.lstsq(J[rows], dx[rows], rcond=None)[0]
         pred = q + dq
         r = robot.ik(
@@ -125,7 +131,7 @@ def walk(
                 s=s_try,
                 extra={"min_singular_value": sv},
             )
-        return q_new, T_new, J_new
+        return q_new, T_new, J_new, sv
 
     failure: PlanningError | None = None
     for target in grid[1:]:
@@ -148,8 +154,8 @@ def walk(
                         )
                 h = 0.5 * (s_try - s_cur)
                 continue
-            q, T, J = out
-            sigma_min = min(sigma_min, float(np.linalg.svd(J[rows], compute_uv=False)[-1]))
+            q, T, J, sv = out
+            sigma_min = min(sigma_min, sv)
             s_out.append(s_try)
             q_out.append(q)
             s_cur, h = s_try, min(2.0 * h, h_max)

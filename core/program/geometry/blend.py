@@ -41,6 +41,23 @@ def _exp(rotvec: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * K + (1.0 - c) * (K @ K)
 
 
+def _log(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors (N, 3) of rotations (N, 3, 3): closed form away from a half turn, else
+    ``core.line.rotvecs`` (the rows near pi)."""
+    vee = 0.5 * np.stack(
+        [R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=1
+    )
+    cos = np.clip(0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0), -1.0, 1.0)
+    sin = np.linalg.norm(vee, axis=1)
+    angle = np.arctan2(sin, cos)
+    scale = np.where(sin > 1e-9, angle / np.where(sin > 1e-9, sin, 1.0), 1.0 + sin**2 / 6.0)
+    out = vee * scale[:, None]
+    far = cos < -0.9
+    if far.any():
+        out[far] = rotvecs(R[far])
+    return out
+
+
 def pose_blend(
     a: Callable[[np.ndarray], np.ndarray], c: Callable[[np.ndarray], np.ndarray]
 ) -> Callable[[np.ndarray], np.ndarray]:
@@ -52,7 +69,7 @@ def pose_blend(
         Ta, Tc = a(u), c(u)
         T = np.zeros_like(Ta)
         T[:, :3, 3] = (1.0 - w)[:, None] * Ta[:, :3, 3] + w[:, None] * Tc[:, :3, 3]
-        rel = rotvecs(np.swapaxes(Ta[:, :3, :3], 1, 2) @ Tc[:, :3, :3])
+        rel = _log(np.swapaxes(Ta[:, :3, :3], 1, 2) @ Tc[:, :3, :3])
         T[:, :3, :3] = Ta[:, :3, :3] @ _exp(w[:, None] * rel)
         T[:, 3, 3] = 1.0
         return T
