@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from scipy.spatial.transform import Rotation
 
 from core.geometry.so3 import pose_to_matrix
 from robots import registry
@@ -203,3 +204,27 @@ def test_start_outside_limits_is_joint_limit_and_unknown_robot_404(client):
     body = program()
     body["robot"] = "nope"
     _problem(client.post(URL, json=body), "unknown_robot", 404)
+
+
+def test_lin_past_a_joint_limit_is_joint_limit_with_segment(client):
+    q0 = [*HOME[:5], 2 * math.pi - 0.1]
+    T = UR5.fk(np.array(q0))
+    c, s = math.cos(0.15), math.sin(0.15)  # the tool turned 0.3 rad about its z axis
+    quat = (Rotation.from_matrix(T[:3, :3]) * Rotation.from_quat([0, 0, s, c])).as_quat()
+    body = {
+        "robot": "ur5",
+        "start": {"positions": [*HOME[:5], 2 * math.pi - 0.15]},
+        "segments": [
+            {"type": "ptp", "goal": {"positions": q0}, "blend_radius": 0.0},
+            {"type": "lin", "goal": {"pose": {"position": T[:3, 3].tolist(), "orientation": quat.tolist()}}},
+        ],
+    }  # fmt: skip
+    problem = _problem(client.post(URL, json=body), "joint_limit")
+    assert problem["segment"] == 1 and problem["joint"] == 5
+    assert problem["s"] == pytest.approx(1 / 3, abs=1e-3)
+
+
+def test_time_budget_is_422_with_segment():
+    tight = TestClient(create_app(Settings(time_budget_s=1e-4)))
+    problem = _problem(tight.post(URL, json=program()), "time_budget_exceeded")
+    assert isinstance(problem.get("segment"), int)

@@ -259,4 +259,19 @@ def test_ptp_goal_outside_limits_and_configuration_label_are_validation():
                 )
             )
         assert err.value.field == ("segments", 0, "goal", "configuration")
-    assert JointLimit.code == "joint_limit"
+
+
+def test_lin_past_a_joint_limit_names_its_segment_and_s():
+    q0 = HOME.copy()
+    q0[5] = 2 * np.pi - 0.1  # wrist 3 0.1 rad short of its limit
+    T = UR5.fk(q0)
+    turn = T.copy()
+    turn[:3, :3] = T[:3, :3] @ Rotation.from_rotvec([0, 0, 0.3]).as_matrix()
+    q_start = q0 - [0, 0, 0, 0, 0, 0.05]
+    segs = (Segment("ptp", goal_positions=q0), Segment("lin", goal_pose=turn))
+    with pytest.raises(JointLimit) as err:
+        plan_program(ProgramTask(UR5, q_start, segs))
+    assert err.value.extra["segment"] == 1
+    assert err.value.joint == 5
+    # The wrist reaches its limit after 0.1 of the 0.3 rad turn.
+    assert err.value.s == pytest.approx(1 / 3, abs=1e-3)
