@@ -154,7 +154,12 @@ def plan_program(task: ProgramTask) -> ProgramResult:
     def sampler(t: np.ndarray) -> np.ndarray:
         return _sample(timings, t)[0]
 
-    return report(task, lay, geo, spans, traj, sampler)
+    result = report(task, lay, geo, spans, traj, sampler)
+    # How much the dense limit check stretched the time-optimal timing (1.0: not at all), and
+    # how many rest-to-rest stretches the program has (stops + 1).
+    result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)
+    result.diagnostics["stops"] = len(timings) - 1
+    return result
 
 
 def _sample(
