@@ -18,6 +18,7 @@ from service.schemas.common import (
     Pose,
     Position,
     RobotRef,
+    RosDuration,
     StrictModel,
     TrajectoryResponse,
 )
@@ -200,8 +201,8 @@ class ProgramRequest(StrictModel):
 
 
 class BlendWindow(BaseModel):
-    start_time: float = Field(description="When the blend begins [s].")
-    end_time: float = Field(description="When it ends [s] (the next segment begins).")
+    start_time: float | RosDuration = Field(description="When the blend begins [s].")
+    end_time: float | RosDuration = Field(description="When it ends [s] (the next segment begins).")
 
 
 class SegmentInfo(BaseModel):
@@ -209,8 +210,12 @@ class SegmentInfo(BaseModel):
 
     index: int = Field(description="Position in the request's segments.")
     type: str = Field(description="ptp, lin or circ.")
-    start_time: float = Field(description="Start of the segment's own part [s].")
-    end_time: float = Field(description="End of its own part [s] (its goal, or its blend's start).")
+    start_time: float | RosDuration = Field(
+        description="Start of the segment's own part [s] (a ROS Duration with ?time_format=ros)."
+    )
+    end_time: float | RosDuration = Field(
+        description="End of its own part [s] (its goal, or where its blend begins)."
+    )
     blend_out: BlendWindow | None = Field(default=None, description="Blend into the next segment.")
     diagnostics: dict[str, Any] = Field(description="Deviation, singular values, skipped.")
 

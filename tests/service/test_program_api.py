@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 from core.geometry.so3 import pose_to_matrix
 from robots import registry
 from service.app import create_app
+from service.schemas.program import ProgramResponse
 from service.settings import Settings
 from tests.ros_rules import check_ros_trajectory
 
@@ -95,6 +96,8 @@ def test_program_answer_shape_segments_and_ros_rules(client):
 def test_time_format_ros_applies_to_segment_times(client):
     r = client.post(URL + "?time_format=ros", json=program())
     assert r.status_code == 200
+    ProgramResponse.model_validate(r.json())  # the documented response model holds
+    ProgramResponse.model_validate(client.post(URL, json=program()).json())
     seg = r.json()["segments"][1]
     assert set(seg["start_time"]) == {"sec", "nanosec"}
     assert set(seg["blend_out"]["end_time"]) == {"sec", "nanosec"}
