@@ -21,6 +21,8 @@ from core.trajectory import Trajectory
 
 CHECKS = 10
 """Deviation checks between consecutive returned points (as for single lines)."""
+GOAL_BRANCH_WARNING = 1e-3
+"""A LIN/CIRC ending farther than this [rad] from its goal.positions gets a warning."""
 
 
 @dataclass(frozen=True)
@@ -120,6 +122,14 @@ def report(
                 warnings.append(
                     f"segment {i} strays up to {dp:.3g} m / {do:.3g} rad from its path between "
                     "returned points, over its tolerance"
+                )
+        if sp.path is not None and seg.goal_positions is not None and sp.s[-1] == 1.0:
+            gap = float(np.abs(sp.q_goal - seg.goal_positions).max())
+            if gap > GOAL_BRANCH_WARNING:
+                warnings.append(
+                    f"segment {i} ends at its goal pose in another joint configuration than "
+                    f"goal.positions (up to {gap:.3g} rad apart): the path leads there without a "
+                    "branch flip"
                 )
         results.append(SegmentResult(i, seg.type, t0, t1, blend, diag))
         t_prev = blend[1] if blend else t1

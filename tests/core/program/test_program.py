@@ -275,3 +275,32 @@ def test_lin_past_a_joint_limit_names_its_segment_and_s():
     assert err.value.joint == 5
     # The wrist reaches its limit after 0.1 of the 0.3 rad turn.
     assert err.value.s == pytest.approx(1 / 3, abs=1e-3)
+
+
+def test_circ_circ_and_ptp_ptp_blends_are_smooth_and_inside_their_spheres():
+    segs = (
+        Segment("circ", goal_pose=at(0.1, 0.1, 0), center=at(0.1, 0, 0)[:3, 3], blend_radius=0.03),
+        Segment("circ", goal_pose=at(0.2, 0.2, 0), interim=at(0.13, 0.17, 0)[:3, 3], blend_radius=0.03),
+        Segment("ptp", goal_positions=HOME + 0.2, blend_radius=0.05),
+        Segment("ptp", goal_positions=HOME - 0.1),
+    )  # fmt: skip
+    res = plan_program(ProgramTask(UR5, HOME, segs, sample_period=0.002))
+    tr = res.trajectory
+    assert np.all(np.abs(tr.velocities) <= UR5.velocity_limits * (1 + 1e-9))
+    assert np.all(np.abs(tr.accelerations) <= UR5.acceleration_limits * (1 + 1e-9))
+    assert (np.abs(np.diff(tr.accelerations, axis=0)) / np.diff(tr.times)[:, None]).max() < 2000.0
+    corners = [at(0.1, 0.1, 0), at(0.2, 0.2, 0), UR5.fk(HOME + 0.2)]
+    for info, corner, r in zip(res.segments[:3], corners, (0.03, 0.03, 0.05), strict=True):
+        b0, b1 = info.blend_out
+        sel = (tr.times >= b0) & (tr.times <= b1)
+        dist = np.linalg.norm(UR5.fk_many(tr.positions[sel])[:, :3, 3] - corner[:3, 3], axis=1)
+        assert dist.max() <= r + 1e-9
+        assert np.linalg.norm(tr.velocities[sel], axis=1).min() > 0.05
+    for k in (0, 1):  # both arcs on their circles outside the blends
+        info = res.segments[k]
+        sel = (tr.times >= info.start_time) & (tr.times <= info.end_time)
+        p = UR5.fk_many(tr.positions[sel])[:, :3, 3]
+        start = T0 if k == 0 else at(0.1, 0.1, 0)
+        seg = segs[k]
+        arc = Arc(start, seg.goal_pose, center=seg.center, interim=seg.interim)
+        assert np.abs(np.linalg.norm(p - arc.center, axis=1) - arc.radius).max() < 1e-6
