@@ -100,8 +100,10 @@ class _Common(StrictModel):
 class PtpSegment(_Common):
     """Joint-space motion to the goal (a straight line in joint space)."""
 
-    type: Literal["ptp"]
-    goal: PtpGoal
+    type: Literal["ptp"] = Field(description="ptp: a straight line in joint space.")
+    goal: PtpGoal = Field(
+        description="Goal joint positions, or a tool pose (IK nearest the joints)."
+    )
     profile: Literal["trapezoidal", "quintic"] = Field(
         default="trapezoidal",
         description="Accepted for compatibility: every PTP is timed with the program (time-optimal "
@@ -110,7 +112,9 @@ class PtpSegment(_Common):
 
 
 class _CartesianSegment(_Common):
-    goal: CartesianGoal
+    goal: CartesianGoal = Field(
+        description="Goal tool pose, or goal joints (their FK is the pose)."
+    )
     max_linear_speed: float | None = Field(
         default=None,
         ge=1e-6,
@@ -137,13 +141,15 @@ class _CartesianSegment(_Common):
 class LinSegment(_CartesianSegment):
     """The tool's straight line to the goal (orientation by slerp)."""
 
-    type: Literal["lin"]
+    type: Literal["lin"] = Field(
+        description="lin: the tool's straight line (orientation by slerp)."
+    )
 
 
 class CircSegment(_CartesianSegment):
     """The tool point on a circle arc to the goal, through ``interim`` or about ``center``."""
 
-    type: Literal["circ"]
+    type: Literal["circ"] = Field(description="circ: the tool point on a circle arc.")
     interim: Point3 | None = Field(
         default=None,
         description="A point [m] the arc passes through (not collinear with its ends).",
@@ -168,7 +174,7 @@ class ProgramRequest(StrictModel):
     """POST /v1/trajectories/program."""
 
     robot: RobotRef
-    start: ProgramStart
+    start: ProgramStart = Field(description="Start joint positions of the program.")
     segments: list[ProgramSegment] = Field(
         min_length=1,
         max_length=MAX_SEGMENTS,
@@ -223,4 +229,7 @@ class SegmentInfo(BaseModel):
 class ProgramResponse(TrajectoryResponse):
     """The trajectory plus per-segment times; diagnostics add fraction, max deviations."""
 
-    segments: list[SegmentInfo]
+    segments: list[SegmentInfo] = Field(
+        description="One entry per requested segment (skipped ones included, none after a "
+        "partial plan's failing segment): its time window and its blend window."
+    )
