@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import PlanningError, TooLarge
+from core.errors import InputError, TooLarge
 from core.program.build import Geometry, build
 from core.program.report import ProgramResult, SegmentResult, report
 from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
@@ -136,7 +136,7 @@ def plan_program(task: ProgramTask) -> ProgramResult:
         timings.append((offset, timing, chunk))
         offset += timing.duration
     if not timings:
-        raise PlanningError("the program does not move the arm", field=("segments",))
+        raise InputError("the program does not move the arm", field=("segments",))
     duration = offset
     regular = sample_times(duration, task.sample_period, task.samples, MAX_POINTS)
     marks = np.unique([t for _, _, ch in timings for p in ch for t in p.times])

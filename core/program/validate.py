@@ -90,6 +90,11 @@ def layout(task: ProgramTask) -> Layout:
         goals.append(T_goal)
         lengths.append(float(length))
         T_prev = T_goal
+    if not active:
+        raise InputError(
+            "every segment has zero length: the program does not move the arm",
+            field=("segments",),
+        )
     blends = [0.0] * len(segs)
     for a, b in itertools.pairwise(active):
         r = segs[a].blend_radius

@@ -191,6 +191,7 @@ def test_without_blends_the_program_equals_the_single_moves():
         ((Segment("circ", goal_pose=at(0.2, 0, 0), center=at(0.1, 0.01, 0)[:3, 3] + [0.001, 0, 0]),), ("segments", 0, "center")),
         ((Segment("lin", goal_pose=at(0.1, 0, 0), velocity_scale=0.0),), ("segments", 0, "velocity_scale")),
         ((), ("segments",)),
+        ((Segment("lin", goal_pose=T0), Segment("ptp", goal_positions=HOME)), ("segments",)),
         (tuple(Segment("lin", goal_pose=at(0.01 * (k % 2), 0, 0)) for k in range(101)), ("segments",)),
     ],
 )  # fmt: skip
