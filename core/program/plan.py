@@ -5,7 +5,7 @@ inside a chunk. Each chunk is timed as one rest-to-rest motion (``core.program.t
 program stops exactly at unblended goals and nowhere else. The returned points are a regular grid
 (``sample_period`` or ``samples``) plus every segment boundary and blend window boundary, so a
 controller reaches each goal exactly. LIN/CIRC deviation from their line/arc is measured outside
-the blend windows along the returned trajectory, ``CHECKS`` times between consecutive points.
+the blend windows along the returned trajectory (``core.program.report``).
 """
 
 from __future__ import annotations
@@ -22,8 +22,6 @@ from core.program.timing import ChunkInput, ChunkTiming, time_chunk
 from core.program.validate import layout
 from core.trajectory import MAX_POINTS, Trajectory, sample_times
 
-CHECKS = 10
-"""Deviation checks between consecutive returned points (as for single lines)."""
 _MIN_GAP = 1e-6
 """Regular sample times closer than this [s] to a boundary time are dropped (the boundary stays)."""
 
