@@ -42,6 +42,8 @@ STATUS: dict[type[ex.PlanningError], int] = {
 
 
 def _finite_or_none(value: Any) -> Any:
+    if isinstance(value, int):  # counts and indices (a program's ``segment``) stay integers
+        return value
     try:
         f = float(value)
     except (TypeError, ValueError):
