@@ -7,9 +7,9 @@ from __future__ import annotations
 import socket
 
 from uvicorn.importer import import_from_string
-from uvicorn.protocols.http.auto import AutoHTTPProtocol
+from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from service.http_protocol import PROTOCOL, NoDelayHTTPProtocol, enable_nodelay
+from service.middleware.http_protocol import PROTOCOL, ServiceHTTPProtocol, enable_nodelay
 
 
 class FakeTransport:
@@ -43,5 +43,5 @@ def test_enable_nodelay_leaves_other_transports_alone() -> None:
 
 def test_the_import_string_given_to_uvicorn_names_the_protocol() -> None:
     cls = import_from_string(PROTOCOL)
-    assert cls is NoDelayHTTPProtocol
-    assert issubclass(cls, AutoHTTPProtocol)
+    assert cls is ServiceHTTPProtocol
+    assert issubclass(cls, H11Protocol)
