@@ -1,15 +1,29 @@
-"""``python -m service`` gives uvicorn a protocol that sets TCP_NODELAY on every connection: with
-several workers uvicorn's own listener leaves it off (uvicorn issue #3149), and each keep-alive
-request then waited 44 ms for the client's delayed ACK."""
+"""``python -m service`` gives uvicorn its own HTTP protocol (``service.middleware.http_protocol``).
+
+It sets TCP_NODELAY on every connection (with several workers uvicorn's own listener leaves it off,
+uvicorn issue #3149, and each keep-alive request waited 44 ms for the client's delayed ACK). Over a
+real uvicorn server on loopback, one raw TCP connection at a time (issue 19): an unexpected error is
+a 500 problem+json that leaves the keep-alive connection usable; malformed framing is 400
+problem+json; slow headers or bodies get 408 and are cut off; a client that does not read is
+disconnected; connections over the limit get 503 problem+json."""
 
 from __future__ import annotations
 
+import json
 import socket
+import threading
+import time
+from collections.abc import Iterator
 
+import httpx
+import pytest
+import uvicorn
 from uvicorn.importer import import_from_string
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from service.app import create_app
 from service.middleware.http_protocol import PROTOCOL, ServiceHTTPProtocol, enable_nodelay
+from service.settings import Settings
 
 
 class FakeTransport:
@@ -49,18 +63,6 @@ def test_the_import_string_given_to_uvicorn_names_the_protocol() -> None:
 
 # ---------------------------------------------- a real uvicorn server, one connection at a time
 
-import json  # noqa: E402
-import threading  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Iterator  # noqa: E402
-from typing import Any  # noqa: E402
-
-import httpx  # noqa: E402
-import pytest  # noqa: E402
-import uvicorn  # noqa: E402
-
-from service.app import create_app  # noqa: E402
-from service.settings import Settings  # noqa: E402
 
 QUINTIC_6 = {
     "profile": "quintic",
