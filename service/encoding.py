@@ -130,7 +130,7 @@ worker never holds the whole encoded document of a large trajectory (hundreds of
 BYTES_PER_NUMBER = 24
 """Upper estimate of one encoded float64 in [bytes]: 17 significant digits, sign, point, exponent
 and the comma."""
-BYTES_PER_SAMPLE = 96
+BYTES_PER_SAMPLE = 128
 """Upper estimate of the per-sample framing in [bytes]: the keys of a ROS-shaped point and its time."""
 COLUMNS = ("time_from_start", "positions", "velocities", "accelerations")
 
@@ -242,10 +242,13 @@ def _row_width(body: dict[str, Any]) -> int:
 
 
 def json_response(body: Any, status_code: int = 200) -> Response:
-    """``body`` as JSON, admitted first: a trajectory past the request's deadline is 422
-    ``time_budget_exceeded``;
-    over the per-request cap 422 ``too_large``, over the worker's budget 503 ``overloaded``. A
-    document with more than ``STREAM_POINTS`` samples is streamed in chunks (the same bytes)."""
+    """``body`` as JSON, admitted first (limits from ``current_policy()``).
+
+    A trajectory document past the request's deadline is 422 ``time_budget_exceeded``; an estimate
+    (``estimate_bytes``) over the per-request cap is 422 ``too_large``; over the worker's budget of
+    response bytes in flight, 503 ``overloaded`` with ``Retry-After``. The reservation is returned
+    when the response has been sent. A document with more than ``STREAM_POINTS`` samples is
+    streamed in chunks (the same bytes)."""
     policy = current_policy()
     if policy.deadline is not None and isinstance(body, dict) and _samples(body):
         # A trajectory document only: /v1/compare reports a method's timeout in its row.
