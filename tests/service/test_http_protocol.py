@@ -9,6 +9,7 @@ disconnected; connections over the limit get 503 problem+json."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import socket
 import threading
@@ -306,5 +307,9 @@ def test_the_protocol_reads_its_header_timeout_from_the_environment(
     monkeypatch.setattr(ServiceHTTPProtocol, "header_timeout_s", None)
     monkeypatch.setenv("TRAJ_HEADER_TIMEOUT_S", "2.5")
     config = uvicorn.Config(create_app(Settings(access_log=False)), http=ServiceHTTPProtocol)
-    ServiceHTTPProtocol(config, uvicorn.server.ServerState(), {})
+    loop = asyncio.new_event_loop()
+    try:
+        ServiceHTTPProtocol(config, uvicorn.server.ServerState(), {}, _loop=loop)
+    finally:
+        loop.close()
     assert ServiceHTTPProtocol.header_timeout_s == 2.5
