@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Annotated
 
-from fastapi import Depends, Path, Request
+from fastapi import Path, Request
 
 from core.budget import Deadline
 from robots.model import Robot
@@ -34,35 +34,29 @@ async def get_settings(request: Request) -> Settings:
     return settings
 
 
-async def request_deadline(
-    settings: Annotated[Settings, Depends(get_settings)],
-) -> Deadline:
-    """A ``Deadline`` of ``TRAJ_TIME_BUDGET_S`` from now, also checked before the response is encoded."""
-    deadline = Deadline(settings.time_budget_s)
-    policy = current_policy()
-    RESPONSE_POLICY.set(
-        replace(
-            policy,
-            deadline=deadline,
-            max_bytes=settings.max_response_bytes,
-            budget_bytes=settings.response_budget_bytes,
+async def request_deadline(request: Request) -> Deadline:
+    """The request's ``Deadline``: ``TRAJ_TIME_BUDGET_S`` from its first use (one per request, kept
+    in ``request.state.deadline``), also checked before a trajectory response is encoded."""
+    deadline: Deadline | None = getattr(request.state, "deadline", None)
+    if deadline is None:
+        settings: Settings = request.app.state.settings
+        deadline = request.state.deadline = Deadline(settings.time_budget_s)
+        RESPONSE_POLICY.set(
+            replace(
+                current_policy(),
+                deadline=deadline,
+                max_bytes=settings.max_response_bytes,
+                budget_bytes=settings.response_budget_bytes,
+            )
         )
-    )
     return deadline
 
 
-async def response_policy(
-    settings: Annotated[Settings, Depends(get_settings)],
-    deadline: Annotated[Deadline, Depends(request_deadline)],
-    layout: Layout = LAYOUT_QUERY,
-) -> ResponsePolicy:
-    """The ``?layout=`` of a trajectory response, with the deadline and size limits."""
-    policy = ResponsePolicy(
-        layout=layout,
-        max_bytes=settings.max_response_bytes,
-        budget_bytes=settings.response_budget_bytes,
-        deadline=deadline,
-    )
+async def response_policy(request: Request, layout: Layout = LAYOUT_QUERY) -> ResponsePolicy:
+    """The ``?layout=`` of a trajectory response, with the request's deadline and size limits.
+    (No sub-dependencies: each costs FastAPI a few tens of microseconds per request.)"""
+    await request_deadline(request)
+    policy = replace(current_policy(), layout=layout)
     RESPONSE_POLICY.set(policy)
     return policy
 
