@@ -8,9 +8,10 @@ string each worker process resolves. On top of uvicorn's ``H11Protocol`` it
   and asyncio turns Nagle's algorithm off only for sockets that report ``IPPROTO_TCP`` (uvicorn
   issue #3149). A response written as headers then body then waited for the client's delayed ACK:
   every keep-alive request to two workers took 44 ms instead of 0.8 ms;
-- gives a client ``TRAJ_HEADER_TIMEOUT_S`` from the first byte of a request to the end of its
-  headers. uvicorn's keep-alive timer stops at the first byte, so a client sending its headers one
-  byte at a time held a connection for ever; now it gets 408 ``request_timeout`` and is closed;
+- gives a client ``TRAJ_HEADER_TIMEOUT_S`` from the first byte of a request (or from the moment
+  it connects) to the end of its headers. uvicorn's keep-alive timer stops at the first byte and
+  is not armed before it, so a client sending its headers one byte at a time, or nothing at all,
+  held a connection for ever; now it gets 408 ``request_timeout`` (silence: just the close);
 - answers a request h11 cannot parse (``Content-Length: -1``, a bad request line, headers larger
   than ``h11_max_incomplete_event_size``) with 400 problem+json ``bad_request`` instead of uvicorn's
   plain text, and the 503 of uvicorn's ``limit_concurrency`` with problem+json ``overloaded``.
@@ -99,10 +100,14 @@ class ServiceHTTPProtocol(H11Protocol):  # type: ignore[misc]
             ServiceHTTPProtocol.header_timeout_s = Settings.from_env().header_timeout_s
         self._head_timer: asyncio.TimerHandle | None = None
         self._head_cycle: object = None
+        self._head_started = False
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         enable_nodelay(transport)
         super().connection_made(transport)
+        # uvicorn arms no timer before the first byte: a connection that never sends anything
+        # would stay open for ever (3,000 of them, bounded only by the fd limit).
+        self._arm_head_timer()
 
     def connection_lost(self, exc: Exception | None) -> None:
         self._cancel_head_timer()
@@ -111,13 +116,16 @@ class ServiceHTTPProtocol(H11Protocol):  # type: ignore[misc]
     def data_received(self, data: bytes) -> None:
         if self._head_timer is None and (self.cycle is None or self.cycle.response_complete):
             # First bytes of a new request: its headers must be complete within the timeout.
-            self._head_cycle = self.cycle
-            self._head_timer = self.loop.call_later(
-                self.header_timeout_s or 10.0, self._head_timeout
-            )
+            self._arm_head_timer()
+        self._head_started = True
         super().data_received(data)
         if self._head_timer is not None and self.cycle is not self._head_cycle:
             self._cancel_head_timer()  # h11 parsed the request line and headers
+
+    def _arm_head_timer(self) -> None:
+        self._head_cycle = self.cycle
+        self._head_started = False
+        self._head_timer = self.loop.call_later(self.header_timeout_s or 10.0, self._head_timeout)
 
     def _cancel_head_timer(self) -> None:
         if self._head_timer is not None:
@@ -127,6 +135,9 @@ class ServiceHTTPProtocol(H11Protocol):  # type: ignore[misc]
     def _head_timeout(self) -> None:
         self._head_timer = None
         if self.transport.is_closing():
+            return
+        if not self._head_started:  # a new connection that never sent a byte: just close it
+            self.transport.close()
             return
         self.logger.info("request headers not received within %g s", self.header_timeout_s)
         self.transport.write(

@@ -313,3 +313,10 @@ def test_the_protocol_reads_its_header_timeout_from_the_environment(
     finally:
         loop.close()
     assert ServiceHTTPProtocol.header_timeout_s == 2.5
+
+
+def test_a_connection_that_never_sends_a_byte_is_closed(running: Running) -> None:
+    with running.connect() as sock:
+        started = time.perf_counter()
+        assert closed(sock, within_s=3.0)
+        assert 0.3 < time.perf_counter() - started < 1.5
