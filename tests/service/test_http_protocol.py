@@ -22,6 +22,7 @@ import uvicorn
 from uvicorn.importer import import_from_string
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from service import encoding
 from service.app import create_app
 from service.middleware.http_protocol import PROTOCOL, ServiceHTTPProtocol, enable_nodelay
 from service.settings import Settings
@@ -339,3 +340,49 @@ def test_many_slow_clients_are_all_cut_off_and_the_server_still_answers(running:
     finally:
         for sock in socks:
             sock.close()
+
+
+def test_concurrent_large_answers_never_exceed_the_workers_budget(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The amplification probe of issue 19 item 4, scaled down: 8 clients at once ask for a
+    100,000-point answer (about 30 MB estimated each) from a worker whose budget holds two. Every
+    answer is a 200 or a 503 ``overloaded``, the bytes in flight never exceed the budget, and all
+    of them are returned at the end."""
+    budget = encoding.ResponseBudget()
+    peak = 0
+    reserve = budget.reserve
+
+    def tracking(nbytes: int, limit: int | None) -> encoding.Reservation:
+        nonlocal peak
+        reservation = reserve(nbytes, limit)
+        peak = max(peak, budget.in_flight)
+        return reservation
+
+    monkeypatch.setattr(budget, "reserve", tracking)
+    monkeypatch.setattr(encoding, "RESPONSE_BUDGET", budget)
+    one = encoding.estimate_bytes({"joint_names": ["j"] * 6, "time_from_start": [0.0] * 100_000})
+    server = Running(Settings(access_log=False, response_budget_bytes=2 * one + 1))
+    statuses: list[int] = []
+    try:
+
+        def client() -> None:
+            with httpx.Client(base_url=server.url, timeout=60) as c:
+                r = c.post("/v1/trajectories/joint", json=QUINTIC_6)
+                statuses.append(r.status_code)
+                if r.status_code == 503:
+                    assert r.json()["code"] == "overloaded" and r.headers["retry-after"] == "1"
+                else:
+                    assert len(r.json()["points"]) == 100_000
+
+        threads = [threading.Thread(target=client) for _ in range(8)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(120)
+    finally:
+        server.stop()
+    assert len(statuses) == 8 and set(statuses) <= {200, 503}, statuses
+    assert 200 in statuses
+    assert 0 < peak <= 2 * one + 1, (peak, one)
+    assert budget.in_flight == 0
