@@ -3,6 +3,13 @@
 Every error the service answers has ``type``, ``title``, ``status``, ``detail`` and ``code``; Cartesian
 failures add ``s`` (path parameter in [0, 1]); validation failures add ``errors`` with each field's
 location and a message. No body ever echoes the offending input value back.
+
+Beside ``STATUS`` (planning errors), ``HTTP_CODES`` gives the codes of HTTP-level answers (404
+``not_found``, 405 ``method_not_allowed``, 408 ``request_timeout``, 413 ``too_large``, 503
+``overloaded``); an ``ArithmeticError`` is 422 ``infeasible``; any other exception is 500
+``internal_error``, answered by ``service.middleware.catch_all`` so the connection stays usable.
+The HTTP protocol (``service.middleware.http_protocol``) answers what never reaches the app: 400
+``bad_request`` (malformed HTTP), 408 (slow headers), 503 (too many connections).
 """
 
 from __future__ import annotations
