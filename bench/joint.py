@@ -1,11 +1,11 @@
 """P1 (quintic point-to-point) and P2 (C2 spline through via points): joint-space tasks.
 
-P1: 6 joints rest to rest in 2 s, 1000 samples of q, q', q''. Ours (``core.point_to_point.plan_joint``
+P1: 6 joints rest to rest in 2 s, 1000 samples of q, q', q''. Ours (``core.joint.point_to_point.plan_joint``
 and ``POST /v1/trajectories/joint``) beside roboticstoolbox ``jtraj`` and a plain numpy reference
 (the closed-form rest-to-rest quintic ``q0 + d (10 s^3 - 15 s^4 + 6 s^5)`` by Horner's rule).
 
 P2: 6 joints through 50 via points at given times (10 s), clamped at rest, 10,000 samples with two
-derivatives. Ours (``core.splines.plan_spline`` and ``POST /v1/trajectories/spline``) beside scipy
+derivatives. Ours (``core.joint.splines.plan_spline`` and ``POST /v1/trajectories/spline``) beside scipy
 ``CubicSpline`` fit plus three evaluations.
 
 Every row is checked against the reference before it is timed (``assert_close``), so a fast row
@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from bench.harness import Row, Table, http_row, optional
-from core.point_to_point import PointToPoint, plan_joint
-from core.splines import plan_spline
+from core.joint.point_to_point import PointToPoint, plan_joint
+from core.joint.splines import plan_spline
 
 Q0 = np.array([0.0, -1.5, 1.5, 0.0, 0.5, 0.0])
 Q1 = np.array([1.0, -1.0, 0.7, 1.2, -0.5, 0.3])

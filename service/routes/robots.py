@@ -73,6 +73,7 @@ def get_robot(name: str = RobotName) -> RobotDetail:
             position=robot.position_limits.tolist(),
             velocity=robot.velocity_limits.tolist(),
             acceleration=robot.acceleration_limits.tolist(),
+            jerk=None if robot.jerk_limits is None else robot.jerk_limits.tolist(),
         ),
         home=robot.home.tolist(),
         limit_sources=dict(robot.sources),

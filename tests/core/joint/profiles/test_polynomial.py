@@ -6,22 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.polynomials import (
-    CUBIC_MATRIX,
-    QUINTIC_MATRIX,
-    LinearProfile,
-    PolynomialProfile,
-    TrapezoidalProfile,
-    abs_peak_on_unit,
-    polyval,
-    unit_roots,
-)
-from core.timing import (
+from core.joint.durations import (
     CUBIC_PEAK_ACCELERATION,
     CUBIC_PEAK_VELOCITY,
     QUINTIC_PEAK_ACCELERATION,
     QUINTIC_PEAK_VELOCITY,
 )
+from core.joint.peaks import abs_peak_on_unit, polyval, unit_roots
+from core.joint.profiles.linear import LinearProfile
+from core.joint.profiles.polynomial import CUBIC_MATRIX, QUINTIC_MATRIX, PolynomialProfile
+from core.joint.profiles.trapezoidal import TrapezoidalProfile
 
 RNG_SEED = 20240402
 
@@ -117,7 +111,7 @@ def test_rest_to_rest_peaks_match_the_closed_forms() -> None:
             QUINTIC_PEAK_ACCELERATION,
         ),
     ):
-        vel, acc = prof.peaks()
+        vel, acc, _ = prof.peaks()
         np.testing.assert_allclose(vel, kv * dq / T, rtol=1e-12)
         np.testing.assert_allclose(acc, ka * dq / T**2, rtol=1e-12)
         dense = np.linspace(0, T, 200_001)
@@ -130,7 +124,7 @@ def test_exact_peaks_bound_dense_sampling_from_above() -> None:
     for _ in range(100):
         c = random_case(rng)
         prof = PolynomialProfile(c["q0"], c["q1"], c["T"], c["v0"], c["v1"], c["a0"], c["a1"])
-        vel, acc = prof.peaks()
+        vel, acc, _ = prof.peaks()
         t = np.linspace(0, c["T"], 20_001)
         dense_v, dense_a = np.abs(prof(t, 1)).max(axis=0), np.abs(prof(t, 2)).max(axis=0)
         assert np.all(dense_v <= vel * (1 + 1e-12) + 1e-12)
@@ -145,9 +139,9 @@ def test_batched_durations_equal_one_at_a_time() -> None:
     durations = np.geomspace(0.1, 10, 7)
     args = (c["q0"], c["q1"])
     bcs = (c["v0"], c["v1"], c["a0"], c["a1"])
-    vel, acc = PolynomialProfile(*args, durations[:, None], *bcs).peaks()
+    vel, acc, _ = PolynomialProfile(*args, durations[:, None], *bcs).peaks()
     for i, T in enumerate(durations):
-        v1, a1 = PolynomialProfile(*args, T, *bcs).peaks()
+        v1, a1, _ = PolynomialProfile(*args, T, *bcs).peaks()
         np.testing.assert_allclose(vel[i], v1, rtol=1e-12)
         np.testing.assert_allclose(acc[i], a1, rtol=1e-12)
 

@@ -6,11 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core import timing
 from core.errors import Infeasible, InputError, JointLimit, JointRateLimit
+from core.joint import durations as timing
+from core.joint.durations import shortest_feasible
+from core.joint.point_to_point import PROFILES as REGISTRY
+from core.joint.point_to_point import PointToPoint, plan_joint
 from core.limits import JointLimits
-from core.point_to_point import PROFILES, PointToPoint, build_profile, plan_joint
-from core.timing import shortest_feasible
+
+PROFILES = ("linear", "cubic", "quintic", "trapezoidal")
+"""The profiles timed by velocity and acceleration limits alone (``jerk_limited`` also needs jerk:
+tests/core/joint/profiles/test_jerk_limited.py)."""
 
 RNG_SEED = 7301
 
@@ -21,7 +26,7 @@ def random_limits(rng: np.random.Generator, dof: int) -> JointLimits:
 
 def ratios(plan, limits: JointLimits, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """Exact and sampled peak/limit ratios, each ``(dof,)`` velocity then acceleration stacked."""
-    vel, acc = plan.profile.peaks()
+    vel, acc, _ = plan.profile.peaks()
     traj = plan.trajectory
     exact = np.concatenate([vel / limits.velocity, acc / limits.acceleration])
     sampled = np.concatenate(
@@ -63,7 +68,7 @@ def test_boundary_rates_shortest_duration_is_found_numerically(kind: str) -> Non
         except JointRateLimit:
             # Truly infeasible: no duration on a fine scan keeps within the limits.
             durations = np.geomspace(timing.MIN_DURATION, timing.MAX_DURATION, 4001)
-            vel_pk, acc_pk = build_profile(kind, motion, durations[:, None], np.inf).peaks()
+            vel_pk, acc_pk = REGISTRY[kind].build(motion, durations[:, None], np.inf).peaks()[:2]
             excess = np.maximum(vel_pk / limits.velocity, acc_pk / limits.acceleration)
             assert np.all(excess.max(axis=1) > 1.0), motion
             continue
