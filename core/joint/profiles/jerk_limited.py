@@ -4,10 +4,9 @@ Ruckig (pip ``ruckig``; Berscheid and Kroeger, "Jerk-limited real-time trajector
 arbitrary target states", RSS 2021) gives the time-optimal profile under per-joint velocity,
 acceleration and jerk limits from any start state to any goal state, with every joint synchronized
 to finish together; ``minimum_duration`` stretches it to a given duration. Each joint's profile is
-seven phases of constant jerk, so positions are piecewise cubic: this module reads the phases
-(``Trajectory.profiles``) and samples them vectorized (the same arithmetic as Ruckig's ``at_time``,
-without one Python call per sample), with the exact boundary states at ``t == 0`` and ``t == T``,
-and the exact peaks of every phase.
+seven phases of constant jerk (``core.timing.s_curve.ConstantJerkPhases`` samples them vectorized
+and gives their exact peaks); this module adds the exact boundary states at ``t == 0`` and
+``t == T``.
 
 Failures are never Ruckig exceptions: a boundary state over the limits, a start state that would
 carry a joint over its velocity limit before it can brake, a goal state that cannot be reached
@@ -25,21 +24,16 @@ from core.joint import durations
 from core.joint.motion import PointToPoint, State
 from core.joint.profiles.base import ProfileKind
 from core.limits import JointLimits
-from core.trajectory import Peaks
-
-RUCKIG_MAX_DURATION = 7600.0
-"""[s] Ruckig refuses longer trajectories (numerical stability; its ``ErrorTrajectoryDuration``)."""
-DURATION_TOLERANCE = 1e-9
-"""Relative: a Ruckig duration this close to the requested one is the requested one."""
-PHASES = 7
+from core.timing.s_curve import DURATION_TOLERANCE, ConstantJerkPhases, calculate
 
 
-class JerkLimitedProfile:
-    """A synchronized Ruckig profile: per joint, seven phases of constant jerk.
+class JerkLimitedProfile(ConstantJerkPhases):
+    """A synchronized Ruckig profile: per joint, seven phases of constant jerk, sampled with the
+    exact boundary states at ``t == 0`` and ``t == duration``.
 
     Args:
         trajectory: A calculated ``ruckig.Trajectory`` (one section, no brake phase).
-        start, goal: The boundary states, returned exactly at ``t == 0`` and ``t == duration``.
+        start, goal: The boundary states.
         duration: The duration [s] to report (Ruckig's, or the requested one it equals to
             ``DURATION_TOLERANCE``).
     """
@@ -49,71 +43,27 @@ class JerkLimitedProfile:
     def __init__(
         self, trajectory: ruckig.Trajectory, start: State, goal: State, duration: float
     ) -> None:
-        phases = trajectory.profiles[0]
-        # (dof, 7) phase durations and jerks; (dof, 8) states at the phase boundaries.
-        self.phase_durations = np.array([p.t for p in phases])
-        self.jerk = np.array([p.j for p in phases])
-        self.acc = np.array([p.a for p in phases])
-        self.vel = np.array([p.v for p in phases])
-        self.pos = np.array([p.p for p in phases])
-        self.starts = np.concatenate(
-            [np.zeros((len(phases), 1)), np.cumsum(self.phase_durations, axis=1)[:, :-1]], axis=1
-        )
-        self.duration = float(duration)
+        super().__init__(trajectory, duration)
         self._start, self._goal = start, goal
 
     def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
         """Derivative ``order`` (0-3) at times ``t`` ``(N,)`` [s] -> ``(N, dof)``."""
-        return self._evaluate(np.asarray(t, dtype=float), (order,))[0]
+        return self._pinned(np.asarray(t, dtype=float), (order,))[0]
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities, accelerations at ``t`` ``(N,)``, each ``(N, dof)``."""
-        q, qd, qdd = self._evaluate(np.asarray(t, dtype=float), (0, 1, 2))
+        q, qd, qdd = self._pinned(np.asarray(t, dtype=float), (0, 1, 2))
         return q, qd, qdd
 
-    def _evaluate(self, t: np.ndarray, orders: tuple[int, ...]) -> list[np.ndarray]:
-        dof = self.jerk.shape[0]
-        # Phase of every (sample, joint): searchsorted per joint (phase starts differ per joint).
-        k = np.empty((t.size, dof), dtype=np.intp)
-        for j in range(dof):
-            k[:, j] = np.searchsorted(self.starts[j], t, side="right") - 1
-        np.clip(k, 0, PHASES - 1, out=k)
-        cols = np.arange(dof)
-        tau = np.clip(t, 0.0, self.duration)[:, None] - self.starts[cols, k]
-        jk, ak, vk, pk = (x[cols, k] for x in (self.jerk, self.acc, self.vel, self.pos))
-        out = []
-        for order in orders:
-            if order == 0:
-                value = pk + tau * (vk + tau * (ak / 2.0 + tau * jk / 6.0))
-            elif order == 1:
-                value = vk + tau * (ak + tau * jk / 2.0)
-            elif order == 2:
-                value = ak + tau * jk
-            else:
-                value = jk.copy()
+    def _pinned(self, t: np.ndarray, orders: tuple[int, ...]) -> list[np.ndarray]:
+        out = self.evaluate(t, orders)
+        ends = [(t == 0.0).nonzero()[0], (t == self.duration).nonzero()[0]]
+        for order, value in zip(orders, out, strict=True):
             if order < 3:
-                ends = (self._start[order], self._goal[order])
-                for at, state in zip((0.0, self.duration), ends, strict=True):
-                    hit = (t == at).nonzero()[0]
+                for hit, state in zip(ends, (self._start, self._goal), strict=True):
                     if hit.size:
-                        value[hit] = state
-            out.append(value)
+                        value[hit] = state[order]
         return out
-
-    def peaks(self) -> Peaks:
-        """Exact largest |velocity|, |acceleration|, |jerk| of each joint ``(dof,)``: jerk over
-        the phases of non-zero length, acceleration at the phase boundaries (linear in between),
-        velocity at the boundaries and where the acceleration crosses zero inside a phase."""
-        live = self.phase_durations > 0.0
-        jerk = np.where(live, np.abs(self.jerk), 0.0).max(axis=1)
-        acc = np.abs(self.acc).max(axis=1)
-        a, j, h = self.acc[:, :-1], self.jerk, self.phase_durations
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tau = -a / j
-            inside = live & (j != 0.0) & (tau > 0.0) & (tau < h)
-            v_turn = np.where(inside, np.abs(self.vel[:, :-1] - a * a / (2.0 * j)), 0.0)
-        vel = np.maximum(np.abs(self.vel).max(axis=1), v_turn.max(axis=1))
-        return Peaks(vel, acc, jerk)
 
 
 class JerkLimited(ProfileKind):
@@ -155,18 +105,18 @@ class JerkLimited(ProfileKind):
         inp.max_velocity, inp.max_acceleration, inp.max_jerk = vmax, amax, jmax
         if duration is not None:
             inp.minimum_duration = max(float(duration), durations.MIN_DURATION)
-        trajectory = _calculate(inp, joint_names)
+        trajectory = calculate(inp, joint_names)
         found = trajectory.duration
         if duration is None:
             if found < durations.MIN_DURATION:  # no motion: stretch to the floor
                 inp.minimum_duration = durations.MIN_DURATION
-                trajectory = _calculate(inp, joint_names)
+                trajectory = calculate(inp, joint_names)
             return JerkLimitedProfile(
                 trajectory, motion.start, motion.goal, max(found, durations.MIN_DURATION)
             )
         if abs(found - duration) > DURATION_TOLERANCE * duration:
             inp.minimum_duration = None
-            shortest = _calculate(inp, joint_names).duration
+            shortest = calculate(inp, joint_names).duration
             blocked = (
                 ""
                 if found <= shortest * (1.0 + DURATION_TOLERANCE)
@@ -212,26 +162,3 @@ def _check_boundary_states(
                     field=(end, what, j),
                     joint=j,
                 )
-
-
-def _calculate(inp: ruckig.InputParameter, names: tuple[str, ...]) -> ruckig.Trajectory:
-    """Ruckig's trajectory for ``inp``; every Ruckig failure as ``Infeasible`` with its reason."""
-    dof = len(names)
-    trajectory = ruckig.Trajectory(dof)
-    try:
-        result = ruckig.Ruckig(dof).calculate(inp, trajectory)
-    except ruckig.RuckigError as e:  # unreachable target state, the duration cap...
-        reason = str(e).replace("[ruckig]", "").strip()
-        for j in range(dof - 1, -1, -1):
-            reason = reason.replace(f"DoF {j}", f"joint {names[j]}")
-        raise Infeasible(f"no jerk-limited profile within the limits: {reason}") from e
-    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise Infeasible(f"no jerk-limited profile within the limits (Ruckig: {result.name})")
-    if trajectory.duration > RUCKIG_MAX_DURATION:
-        raise Infeasible(f"the jerk-limited profile would take more than {RUCKIG_MAX_DURATION:g} s")
-    if any(p.brake.duration > 0.0 for p in trajectory.profiles[0]):
-        raise Infeasible(
-            "the start state carries a joint over its velocity or acceleration limit before "
-            "the jerk limit lets it brake: no jerk-limited profile stays within the limits"
-        )
-    return trajectory

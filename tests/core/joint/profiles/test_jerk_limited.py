@@ -69,7 +69,7 @@ def test_random_problems_end_exactly_within_limits_time_optimal(rest: bool) -> N
         # The profile itself reaches the goal (not only the pinned sample).
         T = profile.duration
         np.testing.assert_allclose(
-            profile._evaluate(np.array([T * (1 - 1e-15)]), (0,))[0][0],
+            profile.evaluate(np.array([T]), (0,))[0][0],
             motion.goal.positions,
             atol=1e-9,
         )
