@@ -37,6 +37,10 @@ QUINTIC_MATRIX = np.array(
     dtype=float,
 )
 """Notes eq. (3): rows (q0, q1, v0, v1, a0, a1) of the quintic, coefficients highest power first."""
+REST_PEAKS = {"cubic": (1.5, 6.0, 12.0), "quintic": (15.0 / 8.0, 10.0 / np.sqrt(3.0), 60.0)}
+"""Rest to rest: peaks of the velocity, acceleration and jerk in units of ``|dq| / T^k`` (cubic
+``3s^2 - 2s^3``; quintic ``10s^3 - 15s^4 + 6s^5``: velocity at s = 1/2, acceleration at
+s = 1/2 -+ sqrt(3)/6, jerk at both ends)."""
 _CUBIC_INVERSE = np.linalg.inv(CUBIC_MATRIX)
 _QUINTIC_INVERSE = np.linalg.inv(QUINTIC_MATRIX)
 
@@ -125,7 +129,13 @@ class PolynomialProfile(EndPinned):
 
     def peaks(self) -> Peaks:
         """Exact largest |velocity|, |acceleration| and |jerk| over ``[0, T]``, each
-        ``(..., dof)``."""
+        ``(..., dof)``: closed forms rest to rest (``REST_PEAKS``), else the extrema of the
+        derivatives found by ``abs_peak_on_unit``."""
+        rates = [x for x in (*self._start[1:], *self._goal[1:]) if x is not None]
+        if not any(np.any(x) for x in rates):
+            dq = np.abs(self.coeffs[:-1].sum(axis=0))  # |q(1) - q(0)|
+            k = REST_PEAKS[self.method]
+            return Peaks(k[0] * dq / self._T, k[1] * dq / self._T**2, k[2] * dq / self._T**3)
         vel = abs_peak_on_unit(polyder(self.coeffs, 1)) / self._T
         acc = abs_peak_on_unit(polyder(self.coeffs, 2)) / self._T**2
         jerk = abs_peak_on_unit(polyder(self.coeffs, 3)) / self._T**3
