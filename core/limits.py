@@ -130,15 +130,12 @@ def check_rates(
         tolerance: Relative slack.
         hint: Called only on failure; its text ends the message (say, the shortest duration).
     """
-    dof = len(joint_names)
-    vmax, amax = limits.maxima(dof)
-    jmax = np.full(dof, np.inf) if limits.jerk is None else np.asarray(limits.jerk, dtype=float)
     for kind, peak, limit in (
-        ("velocity", peak_velocity, vmax),
-        ("acceleration", peak_acceleration, amax),
-        ("jerk", peak_jerk, jmax),
+        ("velocity", peak_velocity, limits.velocity),
+        ("acceleration", peak_acceleration, limits.acceleration),
+        ("jerk", peak_jerk, limits.jerk),
     ):
-        if peak is None:
+        if peak is None or limit is None:  # an unknown limit is infinite: nothing to check
             continue
         with np.errstate(over="ignore"):  # a tiny limit gives an infinite ratio: still over
             ratio = np.asarray(peak, dtype=float) / limit  # 0 where the limit is inf

@@ -89,10 +89,12 @@ class PolynomialProfile(EndPinned):
             rhs = stack([q0, v0 * T, q1, v1 * T])
             self.coeffs = _solve(_CUBIC_INVERSE, rhs)
             self._start, self._goal = (q0, v0, None), (q1, v1, None)
+            self._at_rest = not (rhs[1].any() or rhs[3].any())
         else:
             rhs = stack([q0, q1, v0 * T, v1 * T, a0 * T**2, a1 * T**2])
             self.coeffs = _solve(_QUINTIC_INVERSE, rhs)
             self._start, self._goal = (q0, v0, a0), (q1, v1, a1)
+            self._at_rest = not rhs[2:].any()
         self.method = "cubic" if a0 is None else "quintic"
 
     def _evaluate(self, t: np.ndarray, order: int) -> np.ndarray:
@@ -131,8 +133,7 @@ class PolynomialProfile(EndPinned):
         """Exact largest |velocity|, |acceleration| and |jerk| over ``[0, T]``, each
         ``(..., dof)``: closed forms rest to rest (``REST_PEAKS``), else the extrema of the
         derivatives found by ``abs_peak_on_unit``."""
-        rates = [x for x in (*self._start[1:], *self._goal[1:]) if x is not None]
-        if not any(np.any(x) for x in rates):
+        if self._at_rest:
             dq = np.abs(self.coeffs[:-1].sum(axis=0))  # |q(1) - q(0)|
             k = REST_PEAKS[self.method]
             return Peaks(k[0] * dq / self._T, k[1] * dq / self._T**2, k[2] * dq / self._T**3)
