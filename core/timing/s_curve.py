@@ -28,6 +28,15 @@ RUCKIG_MAX_DURATION = 7600.0
 DURATION_TOLERANCE = 1e-9
 """Relative: a Ruckig duration this close to the requested one is the requested one."""
 PHASES = 7
+RUCKIG_CODES = {
+    "-100": "invalid input",
+    "-101": f"the trajectory would take more than Ruckig's {RUCKIG_MAX_DURATION:g} s",
+    "-102": "the position limits cannot be kept",
+    "-104": "a limit is zero",
+    "-110": "no time-optimal profile was found (numerical failure for these magnitudes)",
+    "-111": "the joints could not be synchronized (numerical failure for these magnitudes)",
+}
+"""Ruckig's ``Result`` codes that its Python enum does not name (it raises ``ValueError``)."""
 INVERSE_GRID = 4001
 """Points of the table that seeds ``SCurveTiming.time_at`` before its Newton steps."""
 
@@ -40,9 +49,19 @@ def calculate(inp: ruckig.InputParameter, names: Sequence[str]) -> ruckig.Trajec
     try:
         result = ruckig.Ruckig(dof).calculate(inp, trajectory)
     except ruckig.RuckigError as e:  # unreachable target state, the duration cap...
-        reason = str(e).replace("[ruckig]", "").strip()
+        reason = str(e).replace("[ruckig]", "").strip().split("\n")[0].split(" input:")[0]
+        if reason.startswith("error in step"):  # "error in step 1, dof: 0" + a dump of inputs
+            step, _, where = reason.removeprefix("error in ").partition(", dof: ")
+            reason = (
+                f"Ruckig's {step} failed numerically for DoF {where or '?'} (limits and boundary "
+                "states of very different magnitudes)"
+            )
         for j in range(dof - 1, -1, -1):
             reason = reason.replace(f"DoF {j}", f"joint {names[j]}")
+        raise Infeasible(f"no jerk-limited profile within the limits: {reason}") from e
+    except ValueError as e:  # a result code the Python enum lacks, e.g. "-101 is not a valid"
+        code = str(e).split()[0]
+        reason = RUCKIG_CODES.get(code, f"Ruckig result {code}")
         raise Infeasible(f"no jerk-limited profile within the limits: {reason}") from e
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise Infeasible(f"no jerk-limited profile within the limits (Ruckig: {result.name})")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import ruckig
 
-from core.errors import Infeasible, InputError
+from core.errors import Infeasible, InputError, PlanningError
 from core.joint.point_to_point import PointToPoint, plan_joint
 from core.joint.profiles.jerk_limited import JerkLimitedProfile
 from core.limits import JointLimits
@@ -198,3 +198,37 @@ def test_peaks_of_a_known_profile() -> None:
     np.testing.assert_allclose(plan.trajectory.peak_jerk, [10.0], rtol=1e-12)
     # Closed form: T = dq/v + v/a + a/j = 5 + 0.5 + 0.2.
     assert plan.trajectory.duration == pytest.approx(5.7, rel=1e-12)
+
+
+def test_extreme_magnitudes_give_a_plan_or_infeasible_never_another_error() -> None:
+    """Limits from 1e-6 to 1e8, states up to 1.5x the limits, durations 1e-3 to 1e5 s: Ruckig's
+    exceptions and unnamed result codes (-101, ...) all become ``Infeasible``; plans are finite."""
+    rng = np.random.default_rng(RNG_SEED + 99)
+    outcomes = {"ok": 0, "infeasible": 0}
+    for _ in range(1500):
+        dof = int(rng.integers(1, 8))
+        limits = JointLimits(
+            10 ** rng.uniform(-6, 4, dof),
+            10 ** rng.uniform(-6, 6, dof),
+            jerk=10 ** rng.uniform(-6, 8, dof),
+        )
+        scale = 10 ** rng.uniform(-8, 0)
+        rates = [rng.uniform(-1, 1, dof) * lim * rng.choice([0.0, 0.5, 1.0, 1.5])
+                 for lim in (limits.velocity, limits.velocity, limits.acceleration,
+                             limits.acceleration)]  # fmt: skip
+        motion = PointToPoint.create(
+            rng.uniform(-1e4, 1e4, dof) * scale, rng.uniform(-1e4, 1e4, dof) * scale, *rates
+        )
+        duration = None if rng.random() < 0.5 else float(10 ** rng.uniform(-3, 5))
+        try:
+            plan = plan_joint("jerk_limited", motion, limits, duration=duration, samples=20)
+        except PlanningError as e:
+            assert isinstance(e, (Infeasible, InputError)), (type(e), e, motion, limits)
+            assert "inp." not in str(e)  # no dump of Ruckig's input
+            outcomes["infeasible"] += 1
+            continue
+        traj = plan.trajectory
+        for values in (traj.positions, traj.velocities, traj.accelerations, *traj.peaks):
+            assert np.all(np.isfinite(values)), (motion, limits, duration)
+        outcomes["ok"] += 1
+    assert outcomes["ok"] >= 50, outcomes
