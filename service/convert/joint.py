@@ -1,7 +1,7 @@
 """The one place where request models become numpy core inputs, and plans become responses.
 
 Robots: a request's ``robot`` (a registered name or an inline URDF) is resolved by
-``robots.registry.resolve`` (imported on first use). The robot supplies the joint names, the
+``service.convert.robot``. The robot supplies the joint names, the
 position limits and the velocity/acceleration/jerk limits (jerk: ``None`` where the maker publishes
 none); the request's ``limits.velocity``, ``limits.acceleration`` and ``limits.jerk`` each replace
 the robot's list when given. The request's arrays must have
@@ -22,9 +22,10 @@ from starlette.responses import Response
 from core.errors import InputError
 from core.joint.motion import PointToPoint
 from core.limits import JointLimits
-from core.trajectory import Trajectory, default_joint_names
+from core.trajectory import Trajectory
+from service.convert.robot import robot_and_names
 from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
-from service.schemas.common import InlineRobot, Limits
+from service.schemas.common import Limits
 from service.schemas.trajectories import JointLimitsIn, JointTrajectoryRequest, SplineRequest
 
 
@@ -45,30 +46,6 @@ class SplineInputs(NamedTuple):
     goal_velocity: np.ndarray | None
     limits: JointLimits
     joint_names: tuple[str, ...]
-
-
-def resolve_robot(ref: str | InlineRobot | None) -> Any:
-    """The ``robots.model.Robot`` a request names, or ``None`` (404 ``unknown_robot``,
-    422 ``invalid_urdf`` come from the registry)."""
-    if ref is None:
-        return None
-    from robots.registry import resolve
-
-    return resolve(ref if isinstance(ref, str) else ref.model_dump())
-
-
-def _robot_and_names(
-    ref: str | InlineRobot | None, dof: int, field: tuple[str | int, ...]
-) -> tuple[Any, tuple[str, ...]]:
-    robot = resolve_robot(ref)
-    if robot is None:
-        return None, default_joint_names(dof)
-    if robot.dof != dof:
-        raise InputError(
-            f"the robot has {robot.dof} joints but {'.'.join(map(str, field))} has {dof} values",
-            field=field,
-        )
-    return robot, tuple(robot.joint_names)
 
 
 def joint_limits(limits: Limits | JointLimitsIn | None, robot: Any) -> JointLimits:
@@ -92,7 +69,7 @@ def joint_limits(limits: Limits | JointLimitsIn | None, robot: Any) -> JointLimi
 def joint_inputs(request: JointTrajectoryRequest) -> JointInputs:
     """Move, limits and joint names of a joint-space request."""
     start, goal = request.start, request.goal
-    robot, names = _robot_and_names(request.robot, len(start.positions), ("start", "positions"))
+    robot, names = robot_and_names(request.robot, len(start.positions), ("start", "positions"))
     motion = PointToPoint.create(
         start.positions,
         goal.positions,
@@ -112,7 +89,7 @@ def spline_inputs(request: SplineRequest) -> SplineInputs:
             raise InputError(
                 f"waypoints.{i} needs {dof} values like waypoints.0", field=("waypoints", i)
             )
-    robot, names = _robot_and_names(request.robot, dof, ("waypoints", 0))
+    robot, names = robot_and_names(request.robot, dof, ("waypoints", 0))
 
     def array(value: list[float] | None) -> np.ndarray | None:
         return None if value is None else np.asarray(value, dtype=float)
