@@ -44,7 +44,7 @@ def joint_vector(
     arr = np.asarray(value, dtype=float)
     if arr.shape != (dof,):
         raise InputError(f"{_dotted(field)} needs {dof} values, one per joint", field=field)
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InputError(f"{_dotted(field)} must hold finite numbers", field=field)
     return arr
 
