@@ -20,7 +20,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from core.budget import NO_DEADLINE, Deadline
-from core.errors import InputError, JointRateLimit, PlanningError
+from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
 from core.joint import durations
 from core.limits import (
     JointLimits,
@@ -187,6 +187,15 @@ def allocate_times(
     if limits.velocity is None and limits.acceleration is None:
         raise InputError("give times, or limits (or a robot) to time the spline", field=("limits",))
     dq = np.abs(np.diff(waypoints, axis=0))
+    # No piece is faster than its distance over the speed limit: a sum of those beyond the longest
+    # duration is infeasible before any fit (a URDF's 1e-300 rad/s would overflow the knot times).
+    with np.errstate(over="ignore"):
+        lower = float((dq / vmax).max(axis=1).sum())
+    if not lower <= durations.MAX_DURATION:
+        raise Infeasible(
+            f"this spline needs more than {durations.MAX_DURATION:g} s under these limits",
+            field=("limits",),
+        )
     h = np.maximum(dq / vmax, 2.0 * np.sqrt(dq / amax)).max(axis=1)
     h = np.maximum(h, 0.05 * h.max()) if h.max() > 0.0 else np.ones_like(h)
 
