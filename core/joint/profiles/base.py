@@ -162,4 +162,6 @@ class DurationProfileKind(ProfileKind):
             shortest = max(self.shortest_duration(motion, limits), durations.MIN_DURATION)
         except (InputError, JointRateLimit):
             return ""
+        if not shortest <= durations.MAX_DURATION:
+            return f"; within the limits it would take more than {durations.MAX_DURATION:g} s"
         return f"; the shortest {self.name} duration within the limits is {shortest:.6g} s"

@@ -218,3 +218,12 @@ def test_too_many_points_before_allocating() -> None:
     motion = PointToPoint.create([0.0], [1.0])
     with pytest.raises(TooLarge):
         plan_joint("cubic", motion, duration=1e5, sample_period=1e-4)
+
+
+def test_a_given_duration_under_vanishing_limits_names_no_absurd_duration() -> None:
+    motion = PointToPoint.create([0.0], [0.5])
+    limits = JointLimits(np.array([1e-300]), np.array([1e-300]))
+    for kind in PROFILES:
+        with np.errstate(over="raise", invalid="raise"), pytest.raises(JointRateLimit) as err:
+            plan_joint(kind, motion, limits, duration=1.0)
+        assert "more than 100000 s" in str(err.value), (kind, str(err.value))
