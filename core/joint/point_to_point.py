@@ -12,6 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core.budget import NO_DEADLINE, Deadline
 from core.errors import InputError
 from core.joint.motion import PointToPoint, State
 from core.joint.profiles import PROFILES
@@ -40,6 +41,7 @@ def plan_joint(
     samples: int | None = None,
     max_points: int = MAX_POINTS,
     joint_names: tuple[str, ...] = (),
+    deadline: Deadline = NO_DEADLINE,
 ) -> JointPlan:
     """Plan and sample a point-to-point move: the one core call of the joint-space route.
 
@@ -48,7 +50,8 @@ def plan_joint(
     duration. Boundary positions and every sample must stay within ``limits.position``
     (``JointLimit``); boundary rates must be within the rate limits (``JointRateLimit``) and
     honoured by the profile (``ProfileKind.boundary_rates``; ``InputError`` naming the field
-    otherwise). Sampling as ``sample_times``.
+    otherwise). Sampling as ``sample_times``. ``deadline`` is checked after the timing and after
+    the sampling (``TimeBudgetExceeded``).
     """
     limits = limits or JointLimits()
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
@@ -60,8 +63,10 @@ def plan_joint(
     limits.validate(dof)
     _check_boundaries(kind, motion, limits, names)
     profile = spec.timed(motion, limits, duration, names)
+    deadline.check("joint profile timing")
     times = sample_times(profile.duration, sample_period, samples, max_points)
     trajectory = Trajectory.from_profile(profile, times, names)
+    deadline.check("joint profile sampling")
     check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
     check_positions(trajectory.positions, limits, names, times=times)
     return JointPlan(trajectory, profile, spec.warnings(motion))

@@ -48,6 +48,7 @@ def joint_trajectory(
         samples=body.samples,
         max_points=request.app.state.settings.max_points,
         joint_names=names,
+        deadline=Deadline(request.app.state.settings.time_budget_s),
     )
     return convert.trajectory_response(
         plan.trajectory, body.profile, plan.warnings, started, time_format

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.errors import Infeasible, InputError, JointLimit, JointRateLimit
+from core.budget import Deadline
+from core.errors import Infeasible, InputError, JointLimit, JointRateLimit, TimeBudgetExceeded
 from core.joint import durations as timing
 from core.joint.durations import shortest_feasible
 from core.joint.point_to_point import PROFILES as REGISTRY
@@ -227,3 +228,9 @@ def test_a_given_duration_under_vanishing_limits_names_no_absurd_duration() -> N
         with np.errstate(over="raise", invalid="raise"), pytest.raises(JointRateLimit) as err:
             plan_joint(kind, motion, limits, duration=1.0)
         assert "more than 100000 s" in str(err.value), (kind, str(err.value))
+
+
+def test_an_expired_deadline_stops_the_plan() -> None:
+    motion = PointToPoint.create([0.0], [1.0])
+    with pytest.raises(TimeBudgetExceeded):
+        plan_joint("quintic", motion, duration=1.0, deadline=Deadline(0.0))
