@@ -225,3 +225,63 @@ class SCurveTiming:
     def peaks(self) -> Peaks:
         """Exact largest s' [1/s], |s''| [1/s^2], |s'''| [1/s^3], each ``(1,)``."""
         return self._phases.peaks()
+
+
+DEFAULT_LINEAR_JERK = 10.0
+"""Tool jerk [m/s^3] used with ``max_linear_speed`` when the request gives no ``max_linear_jerk``
+(ten times ``core.path_timing.DEFAULT_LINEAR_ACCELERATION`` per second)."""
+DEFAULT_ANGULAR_JERK = 20.0
+"""Tool angular jerk [rad/s^3] used when the request gives no ``max_angular_jerk``."""
+
+
+def s_curve_limited(
+    length: float,
+    angle: float,
+    max_linear_speed: float | None,
+    max_angular_speed: float | None,
+    max_linear_acceleration: float,
+    max_angular_acceleration: float,
+    max_linear_jerk: float | None = None,
+    max_angular_jerk: float | None = None,
+    cap: np.ndarray | None = None,
+    acceleration_cap: np.ndarray | None = None,
+) -> SCurveTiming:
+    """Shortest rest-to-rest S-curve s(t) for a line of ``length`` [m] turning ``angle`` [rad].
+
+    The tool's linear speed, acceleration and jerk stay within ``max_linear_*`` [m/s, m/s^2,
+    m/s^3], its angular ones within ``max_angular_*`` [rad/s, rad/s^2, rad/s^3] (each ignored when
+    ``None`` or when the line has no such motion; jerks default to ``DEFAULT_*_JERK``). ``cap``
+    (s' [1/s] per grid point, from the joint velocity limits) and ``acceleration_cap`` (|s''|
+    [1/s^2] per interval, from the joint acceleration limits) bound the whole profile by their
+    smallest value: an S-curve has one velocity, acceleration and jerk bound, so the joint caps of
+    ``core.path_timing.speed_limited`` are held conservatively.
+    """
+    bounds = {"velocity": np.inf, "acceleration": np.inf, "jerk": np.inf}
+    for extent, speed, acc, jerk, default_jerk in (
+        (length, max_linear_speed, max_linear_acceleration, max_linear_jerk, DEFAULT_LINEAR_JERK),
+        (angle, max_angular_speed, max_angular_acceleration, max_angular_jerk,
+         DEFAULT_ANGULAR_JERK),
+    ):  # fmt: skip
+        if extent > 1e-12:
+            if speed is not None:
+                bounds["velocity"] = min(bounds["velocity"], speed / extent)
+            bounds["acceleration"] = min(bounds["acceleration"], acc / extent)
+            j = default_jerk if jerk is None else jerk
+            bounds["jerk"] = min(bounds["jerk"], j / extent)
+    if cap is not None:
+        bounds["velocity"] = min(bounds["velocity"], float(np.min(cap)))
+    if acceleration_cap is not None:
+        bounds["acceleration"] = min(bounds["acceleration"], float(np.min(acceleration_cap)))
+    if not np.isfinite(bounds["velocity"]):
+        raise InputError(
+            "give duration or max_linear_speed/max_angular_speed for a motion of this kind",
+            field=("max_linear_speed",),
+        )
+    for name, default in (("acceleration", 1.0), ("jerk", 10.0)):  # no motion of either kind
+        if not np.isfinite(bounds[name]):
+            bounds[name] = default
+    return SCurveTiming(
+        max_velocity=bounds["velocity"],
+        max_acceleration=bounds["acceleration"],
+        max_jerk=bounds["jerk"],
+    )

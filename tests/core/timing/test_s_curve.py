@@ -9,7 +9,7 @@ import pytest
 
 from core.errors import Infeasible, InputError
 from core.path_timing import QuinticTiming
-from core.timing.s_curve import SCurveTiming
+from core.timing.s_curve import SCurveTiming, s_curve_limited
 
 DENSE = 20_001
 
@@ -108,3 +108,20 @@ def test_same_call_shape_as_the_quintic_law() -> None:
     assert s_curve.time_at(np.array([0.5])).shape == quintic.time_at(np.array([0.5])).shape
     # Symmetric rest-to-rest laws both pass s = 1/2 at T/2.
     assert s_curve(np.array([1.0]))[0] == pytest.approx(0.5, abs=1e-12)
+
+
+def test_tool_limits_become_path_limits() -> None:
+    # 0.5 m and 1 rad: linear 0.25 m/s, 1 m/s^2, 10 m/s^3 (default) -> s' 0.5, s'' 2, s''' 20;
+    # angular 1 rad/s, 2 rad/s^2, 5 rad/s^3 -> s' 1, s'' 2, s''' 5: the binding ones win.
+    law = s_curve_limited(0.5, 1.0, 0.25, 1.0, 1.0, 2.0, None, 5.0)
+    assert (law.max_velocity, law.max_acceleration, law.max_jerk) == (0.5, 2.0, 5.0)
+    t = np.linspace(0.0, law.duration, DENSE)
+    assert np.abs(law(t, 1)).max() <= 0.5 * (1 + 1e-9)
+    assert np.abs(law(t, 3)).max() <= 5.0 * (1 + 1e-9)
+    # Joint caps bound the whole profile by their smallest value.
+    capped = s_curve_limited(0.5, 0.0, 0.25, None, 1.0, 2.0, cap=np.array([0.4, 0.3, 0.45]),
+                             acceleration_cap=np.array([1.5, 0.9]))  # fmt: skip
+    assert (capped.max_velocity, capped.max_acceleration) == (0.3, 0.9)
+    with pytest.raises(InputError) as err:
+        s_curve_limited(0.5, 0.0, None, None, 1.0, 2.0)
+    assert err.value.field == ("max_linear_speed",)
