@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -70,6 +71,19 @@ def over_rate_limit(
     return np.abs(values) > limit * (1.0 + tolerance)
 
 
+class LimitedChain(Protocol):
+    """The limit members of ``core.kinematics.Kinematics`` (any robot model has them)."""
+
+    @property
+    def position_limits(self) -> np.ndarray: ...
+
+    @property
+    def velocity_limits(self) -> np.ndarray: ...
+
+    @property
+    def acceleration_limits(self) -> np.ndarray: ...
+
+
 @dataclass(frozen=True)
 class JointLimits:
     """Per-joint limits; ``None`` means the limit is not known (treated as unbounded).
@@ -85,6 +99,16 @@ class JointLimits:
     acceleration: np.ndarray | None = None
     position: np.ndarray | None = None
     jerk: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, robot: LimitedChain, jerk: np.ndarray | None = None) -> JointLimits:
+        """The position, velocity and acceleration limits of ``robot`` (and ``jerk`` if known)."""
+        return cls(
+            velocity=np.asarray(robot.velocity_limits, dtype=float),
+            acceleration=np.asarray(robot.acceleration_limits, dtype=float),
+            position=np.asarray(robot.position_limits, dtype=float),
+            jerk=jerk,
+        )
 
     def validate(self, dof: int) -> None:
         """Check shapes and values against ``dof``; raise ``InputError`` naming ``limits.*``."""

@@ -65,3 +65,16 @@ def test_bad_jerk_limits_name_the_field(jerk: np.ndarray) -> None:
     with pytest.raises(InputError) as err:
         JointLimits(jerk=jerk).validate(2)
     assert err.value.field == ("limits", "jerk")
+
+
+def test_limits_of_a_robot_model() -> None:
+    class Chain:
+        position_limits = POSITION
+        velocity_limits = np.array([1.0, 2.0])
+        acceleration_limits = np.array([3.0, 4.0])
+
+    limits = JointLimits.of(Chain(), jerk=np.array([5.0, 6.0]))
+    np.testing.assert_array_equal(limits.position, POSITION)
+    np.testing.assert_array_equal(limits.maxima(2), ([1.0, 2.0], [3.0, 4.0]))
+    np.testing.assert_array_equal(limits.jerk, [5.0, 6.0])
+    limits.validate(2)
