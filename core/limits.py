@@ -41,7 +41,7 @@ def joint_vector(
     if value is None:
         if default is None:
             raise InputError(f"{_dotted(field)} is required", field=field)
-        return np.full(dof, float(default))
+        return np.zeros(dof) if default == 0.0 else np.full(dof, float(default))
     arr = np.asarray(value, dtype=float)
     if arr.shape != (dof,):
         raise InputError(f"{_dotted(field)} needs {dof} values, one per joint", field=field)

@@ -79,7 +79,7 @@ def _check_boundaries(kind: str, m: PointToPoint, limits: JointLimits, names: tu
         check_positions(state.positions[None], limits, names, field=(end, "positions"))
         for what, limit in maxima.items():
             value = getattr(state, what)
-            if value.any() and what not in spec.boundary_rates:
+            if what not in spec.boundary_rates and value.any():
                 raise InputError(f"the {kind} profile takes no non-zero {what}", field=(end, what))
             if limit is not None and spec.rates_checked_here:  # unknown limit: infinite
                 check_boundary_rates(value, np.asarray(limit, dtype=float), (end, what), names)

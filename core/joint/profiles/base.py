@@ -91,7 +91,7 @@ class ProfileKind:
     def warnings(self, motion: PointToPoint) -> tuple[str, ...]:
         """Things a client should know about this profile of ``motion``."""
         out = []
-        if np.any(motion.goal.velocities):
+        if motion.goal.velocities.any():
             out.append(durations.NONZERO_END_VELOCITY)
         return tuple(out)
 
@@ -139,7 +139,7 @@ class DurationProfileKind(ProfileKind):
     ) -> Profile:
         """Without ``duration`` the shortest one within ``limits``; with it, a plan over known
         limits is ``JointRateLimit`` naming the shortest feasible duration."""
-        amax = limits.maxima(motion.dof)[1]
+        amax = np.inf if limits.acceleration is None else limits.acceleration  # ramps only
         if duration is None:
             shortest = self.shortest_duration(motion, limits)
             return self.build(
