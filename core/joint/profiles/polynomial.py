@@ -83,8 +83,10 @@ class PolynomialProfile(EndPinned):
     ) -> None:
         T = np.asarray(duration, dtype=float)
         self.duration = float(T) if T.ndim == 0 else np.nan
+        if T.ndim == 0:
+            T = self.duration  # a Python float multiplies arrays faster than a 0-d array
         self._T = T
-        stack = np.array if T.ndim == 0 else lambda rows: np.stack(np.broadcast_arrays(*rows))
+        stack = np.array if np.ndim(T) == 0 else lambda rows: np.stack(np.broadcast_arrays(*rows))
         if a0 is None or a1 is None:
             rhs = stack([q0, v0 * T, q1, v1 * T])
             self.coeffs = _solve(_CUBIC_INVERSE, rhs)
