@@ -38,6 +38,7 @@ from core.errors import (
     Singularity,
     Unreachable,
 )
+from core.geometry import so3
 from core.kinematics import Kinematics, jacobians, task_rows
 from core.line import StraightLine
 from core.line_timing import (
@@ -520,7 +521,10 @@ def _batch_chunk(
         w.task.deadline.check("sampled IK at the returned points")
         T, J = many(q[active])
         e_p = p_goal[active] - T[:, :3, 3]
-        e_o = _log3_many(R_goal[active] @ np.swapaxes(T[:, :3, :3], 1, 2))
+        R_err = R_goal[active] @ np.swapaxes(T[:, :3, :3], 1, 2)
+        # Beyond a quarter turn from the goal Newton is no help: NaN fails the tolerance test.
+        within = np.trace(R_err, axis1=1, axis2=2) > 1.0
+        e_o = np.where(within[:, None], so3.log(R_err), np.nan)
         done = (np.einsum("ij,ij->i", e_p, e_p) <= IK_SOLVE_TOLERANCE**2) & (
             np.einsum("ij,ij->i", e_o, e_o) <= IK_SOLVE_TOLERANCE**2
         )
@@ -543,20 +547,6 @@ def _batch_chunk(
     ok = converged & ~turns & ~off & inside
     out[todo[ok]] = q[ok]
     taken[todo[ok]] = True
-
-
-def _log3_many(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors ``(N, 3)`` of rotations ``(N, 3, 3)`` within ``pi / 2`` of the identity
-    (farther ones come out as NaN, which fails any tolerance test)."""
-    v = 0.5 * np.stack(
-        [R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], 1
-    )
-    cos = 0.5 * (R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0)
-    sin = np.sqrt(np.einsum("ij,ij->i", v, v))
-    angle = np.arctan2(sin, cos)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(sin > 1e-12, angle / sin, 1.0 + sin * sin / 6.0)
-    return np.where((cos > 0.0)[:, None], v * scale[:, None], np.nan)
 
 
 def plan_sampled(task: CartesianTask) -> CartesianResult:

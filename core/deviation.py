@@ -22,7 +22,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
-from scipy.spatial.transform import Rotation
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import (
@@ -32,6 +31,7 @@ from core.errors import (
     Singularity,
     Unreachable,
 )
+from core.geometry import so3
 from core.kinematics import Kinematics, task_rows
 from core.line import LineDeviation, StraightLine
 from core.trajectory import Trajectory
@@ -243,7 +243,7 @@ def task_error(task_space: str, T_a: np.ndarray, T_b: np.ndarray) -> tuple[float
     position = float(np.linalg.norm(T_a[:rows, 3] - T_b[:rows, 3]))
     if task_space == "position_xy":
         return position, 0.0
-    return position, float(Rotation.from_matrix(T_a[:3, :3].T @ T_b[:3, :3]).magnitude())
+    return position, float(so3.rotation_angle(T_a[:3, :3].T @ T_b[:3, :3]))
 
 
 def predicted_step(kin: Kinematics, q: np.ndarray, T_target: np.ndarray) -> np.ndarray:
@@ -251,7 +251,7 @@ def predicted_step(kin: Kinematics, q: np.ndarray, T_target: np.ndarray) -> np.n
     T = kin.fk(q)
     twist = np.zeros(6)
     twist[:3] = T_target[:3, 3] - T[:3, 3]
-    twist[3:] = Rotation.from_matrix(T_target[:3, :3] @ T[:3, :3].T).as_rotvec()
+    twist[3:] = so3.log(T_target[:3, :3] @ T[:3, :3].T)
     rows = task_rows(kin.task_space)
     step, *_ = np.linalg.lstsq(kin.jacobian(q)[rows], twist[rows], rcond=1e-6)
     return step
@@ -481,11 +481,6 @@ def strict_deviation(
     """Deviation of configurations ``q`` (N, dof) from the line (``StraightLine.deviation``, whose
     orientation term already takes the larger of the two closest-point readings a client may use)."""
     return line.deviation(kin.fk_many(q), tol_p, tol_o)
-
-
-def skew(u: np.ndarray) -> np.ndarray:
-    """The cross-product matrix (3, 3) of a vector ``u`` (3,)."""
-    return np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
 
 
 def path_deviation(

@@ -70,10 +70,10 @@ from core.deviation import (
     measured_knots,
     path_deviation,
     plan_partial,
-    skew,
     taylor_knots,
 )
 from core.errors import InputError, NoConvergence, TimeBudgetExceeded
+from core.geometry.so3 import skew
 from core.kinematics import Kinematics
 from core.line import StraightLine
 

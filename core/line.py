@@ -17,7 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from core.geometry import so3
 
 _EPS = 1e-12
 
@@ -58,9 +59,8 @@ class StraightLine:
         self.p0 = T_start[:3, 3].copy()
         self.delta_p = T_goal[:3, 3] - self.p0
         self.R0 = T_start[:3, :3].copy()
-        self._rot0 = Rotation.from_matrix(self.R0)
         # Rotation vector of R0^T R1 in [0, pi]: the shorter arc.
-        self.rotvec = (self._rot0.inv() * Rotation.from_matrix(T_goal[:3, :3])).as_rotvec()
+        self.rotvec = so3.log(self.R0.T @ T_goal[:3, :3])
 
     @property
     def length(self) -> float:
@@ -77,23 +77,9 @@ class StraightLine:
         s = np.atleast_1d(np.asarray(s, dtype=float))
         return self.p0 + s[:, None] * self.delta_p
 
-    def rotations(self, s: np.ndarray) -> Rotation:
-        """Tool orientations at ``s`` (N,) as a scipy Rotation stack (slerp on the shorter arc)."""
-        s = np.atleast_1d(np.asarray(s, dtype=float))
-        return self._rot0 * Rotation.from_rotvec(s[:, None] * self.rotvec)
-
     def rotation_matrices(self, s: np.ndarray) -> np.ndarray:
-        """``rotations(s).as_matrix()`` (N, 3, 3) by Rodrigues' formula in numpy: ``R0 exp(s [r]x)``
-        (equal to ~1e-16, several times cheaper than scipy's Rotation for a few poses)."""
-        s = np.atleast_1d(np.asarray(s, dtype=float))
-        angle = self.angle
-        if angle < _EPS:
-            return np.broadcast_to(self.R0, (s.size, 3, 3)).copy()
-        kx, ky, kz = self.rotvec / angle
-        K = np.array([[0.0, -kz, ky], [kz, 0.0, -kx], [-ky, kx, 0.0]])
-        R0K, R0K2 = self.R0 @ K, self.R0 @ K @ K
-        theta = (s * angle)[:, None, None]
-        return self.R0 + np.sin(theta) * R0K + (1.0 - np.cos(theta)) * R0K2
+        """Tool orientations ``(N, 3, 3)`` at ``s`` (N,): slerp on the shorter arc (``so3.slerp``)."""
+        return so3.slerp(self.R0, self.rotvec, s)
 
     def poses(self, s: np.ndarray) -> np.ndarray:
         """Tool poses ``T_base_tool`` at ``s`` (N,): shape (N, 4, 4)."""
@@ -141,7 +127,7 @@ class StraightLine:
             s_rot, w_rot = np.zeros(len(T)), 0.0
         else:
             theta_sq = float(self.rotvec @ self.rotvec)
-            rel = rotvecs(self.R0.T @ T[:, :3, :3])
+            rel = so3.log(self.R0.T @ T[:, :3, :3])
             # Near a half turn the rotation vector may come out as -rel (angle pi about the opposite
             # axis); the same rotation is also rel (1 - 2 pi / |rel|): use the one nearer the line.
             angle = np.linalg.norm(rel, axis=1, keepdims=True)
@@ -164,54 +150,17 @@ class StraightLine:
             orientation = np.zeros(len(T))
         else:
             err = np.swapaxes(self.rotation_matrices(s), 1, 2) @ T[:, :3, :3]
-            orientation = np.linalg.norm(rotvecs(err), axis=1)
+            orientation = np.linalg.norm(so3.log(err), axis=1)
             if length_sq > _EPS:
                 # Also against the line's orientation at the closest point by position alone, the
                 # way a client measuring distance to the segment first would: the larger counts.
                 s_p = np.clip(s_pos, 0.0, 1.0)
                 err_p = np.swapaxes(self.rotation_matrices(s_p), 1, 2) @ T[:, :3, :3]
-                orientation = np.maximum(orientation, np.linalg.norm(rotvecs(err_p), axis=1))
+                orientation = np.maximum(orientation, np.linalg.norm(so3.log(err_p), axis=1))
         return LineDeviation(s=s, position=position, orientation=orientation)
-
-
-def rotvecs(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors ``(N, 3)`` [rad] of rotation matrices ``(N, 3, 3)``, angles in [0, pi]:
-    ``Rotation.from_matrix(R).as_rotvec()`` in plain numpy (the same quaternion construction,
-    Markley's choice of the largest of four candidates, so half turns are exact; equal to scipy's
-    within ~1e-15 and several times cheaper for the thousands of poses of a dense check)."""
-    R = np.asarray(R, dtype=float).reshape(-1, 3, 3)
-    d = np.stack([R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1)
-    trace = d.sum(axis=1)
-    choice = np.argmax(np.column_stack([d, trace]), axis=1)
-    quat = np.empty((len(R), 4))  # x, y, z, w
-    quat[:, 0] = R[:, 2, 1] - R[:, 1, 2]
-    quat[:, 1] = R[:, 0, 2] - R[:, 2, 0]
-    quat[:, 2] = R[:, 1, 0] - R[:, 0, 1]
-    quat[:, 3] = 1.0 + trace
-    for i in range(3):
-        rows = np.flatnonzero(choice == i)
-        if rows.size:
-            j, k = (i + 1) % 3, (i + 2) % 3
-            Ri = R[rows]
-            quat[rows, i] = 1.0 - trace[rows] + 2.0 * Ri[:, i, i]
-            quat[rows, j] = Ri[:, j, i] + Ri[:, i, j]
-            quat[rows, k] = Ri[:, k, i] + Ri[:, i, k]
-            quat[rows, 3] = Ri[:, k, j] - Ri[:, j, k]
-    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-    quat *= np.where(quat[:, 3:] < 0.0, -1.0, 1.0)
-    xyz = quat[:, :3]
-    half = np.arctan2(np.linalg.norm(xyz, axis=1), quat[:, 3])
-    angle = 2.0 * half
-    small = angle <= 1e-3
-    with np.errstate(divide="ignore", invalid="ignore"):
-        scale = np.where(
-            small, 2.0 + angle**2 / 12.0 + 7.0 * angle**4 / 2880.0, angle / np.sin(half)
-        )
-    return scale[:, None] * xyz
 
 
 def pose_error(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
     """Position distance [m] and orientation angle [rad] between two poses (4, 4)."""
     dp = float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3]))
-    dR = Rotation.from_matrix(T_a[:3, :3].T @ T_b[:3, :3])
-    return dp, float(dR.magnitude())
+    return dp, float(so3.rotation_angle(T_a[:3, :3].T @ T_b[:3, :3]))

@@ -48,7 +48,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from core.cartesian_task import CartesianResult, CartesianTask, validated_line
 from core.errors import (
@@ -60,6 +59,7 @@ from core.errors import (
     Singularity,
     TooLarge,
 )
+from core.geometry import so3
 from core.kinematics import fk_jacobian_loop, task_rows
 from core.line import StraightLine
 from core.path_timing import GridTiming, QuinticTiming, speed_limited
@@ -153,7 +153,7 @@ class _Setpoint:
         grid = np.arange(n + 2) * dt
         self.s, self.sd, self.dt, self.end = timing(grid), timing(grid, 1), dt, n * dt
         self.line, theta = line, line.angle
-        K = _skew(line.rotvec / theta) if theta > 0.0 else np.zeros((3, 3))
+        K = so3.skew(line.rotvec / theta) if theta > 0.0 else np.zeros((3, 3))
         # R0 exp(s theta [k]) = R0 + sin(s theta) R0 [k] + (1 - cos(s theta)) R0 [k]^2.
         self.theta, self.R0K, self.R0K2 = theta, line.R0 @ K, line.R0 @ K @ K
         self.omega = line.R0 @ line.rotvec
@@ -219,7 +219,7 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         T_now, J_now = kinematics(q)
         e_p = p_d - T_now[:3, 3]
         if pose_task:
-            e_o = _log3(R_d @ T_now[:3, :3].T)
+            e_o = so3.log(R_d @ T_now[:3, :3].T)
         positions[k], s_log[k] = q, s
         err_p, err_o = math.sqrt(e_p[p_rows] @ e_p[p_rows]), math.sqrt(e_o @ e_o)
         track[k] = err_p, err_o
@@ -343,22 +343,6 @@ def _stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningEr
     return NoConvergence(
         f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
     )
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """The cross-product matrix [v] (3, 3)."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _log3(R: np.ndarray) -> np.ndarray:
-    """Rotation vector (3,) of the rotation matrix ``R``, angle in [0, pi]."""
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])  # 2 sin(theta) axis
-    theta = math.atan2(0.5 * math.sqrt(w @ w), 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0))
-    if theta < 1e-6:
-        return 0.5 * w
-    if theta > math.pi - 1e-4:
-        return Rotation.from_matrix(R).as_rotvec()
-    return (0.5 * theta / math.sin(theta)) * w
 
 
 def plan_resolved_rate(task: CartesianTask) -> CartesianResult:

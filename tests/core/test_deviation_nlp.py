@@ -96,7 +96,10 @@ def test_deviation_constraints_match_the_line_measurement():
     # Independently: the closest point by position alone, and the slerp there.
     d = line.delta_p
     s_p = np.clip((T[:, :3, 3] - line.p0) @ d / (d @ d), 0.0, 1.0)
-    at_s_p = (line.rotations(s_p).inv() * Rotation.from_matrix(T[:, :3, :3])).magnitude()
+    at_s_p = (
+        (Rotation.from_matrix(line.R0) * Rotation.from_rotvec(s_p[:, None] * line.rotvec)).inv()
+        * Rotation.from_matrix(T[:, :3, :3])
+    ).magnitude()
     scale = 1.0 - np.cos(MARGIN * 1e-2)
     for i, Ti in enumerate(T):
         g_pos, g_ori, g_ori_p = np.asarray(g(Ti[:3, 3], Ti[:3, :3])).ravel()

@@ -6,11 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 import core.cartesian as cartesian
 from core.cartesian_task import CartesianTask, plan
-from core.line import StraightLine, rotvecs
+from core.line import StraightLine
 from robots import registry
 
 
@@ -36,36 +35,6 @@ def test_batched_returned_points_equal_the_one_point_path(task, monkeypatch) -> 
     assert np.abs(fast.trajectory.positions - slow.trajectory.positions).max() <= 1e-7
     assert fast.diagnostics["ik_calls"] == slow.diagnostics["ik_calls"]
     assert abs(fast.deviation.max_position - slow.deviation.max_position) <= 1e-9
-
-
-def test_rotvecs_equal_scipy_everywhere_half_turns_included() -> None:
-    rng = np.random.default_rng(5)
-    axes = Rotation.random(500, random_state=6).as_rotvec()
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    cases = [
-        Rotation.random(3000, random_state=7),
-        Rotation.from_rotvec(rng.normal(size=(500, 3)) * 1e-9),
-        Rotation.from_rotvec(axes * (np.pi - rng.uniform(0.0, 1e-6, (500, 1)))),
-        Rotation.from_rotvec(np.pi * np.eye(3)),
-        Rotation.identity(2),
-    ]
-    for rotations in cases:
-        matrices = rotations.as_matrix()
-        np.testing.assert_allclose(
-            rotvecs(matrices), Rotation.from_matrix(matrices).as_rotvec(), rtol=0, atol=1e-12
-        )
-
-
-def test_rotation_matrices_equal_the_scipy_slerp() -> None:
-    for seed in range(20):
-        T0, T1 = np.eye(4), np.eye(4)
-        T0[:3, :3] = Rotation.random(random_state=seed).as_matrix()
-        T1[:3, :3] = Rotation.random(random_state=100 + seed).as_matrix()
-        line = StraightLine(T0, T1 if seed % 4 else T0)
-        s = np.linspace(0.0, 1.0, 33)
-        np.testing.assert_allclose(
-            line.rotation_matrices(s), line.rotations(s).as_matrix(), rtol=0, atol=1e-12
-        )
 
 
 def test_path_rates_pseudo_inverse_equals_numpys() -> None:
