@@ -40,7 +40,6 @@ from core.errors import (
 )
 from core.geometry import so3
 from core.kinematics import Kinematics, jacobians, task_rows
-from core.line import StraightLine
 from core.line_timing import (
     MIN_SPEED_FRACTION,
     nominal_path_speed,
@@ -48,6 +47,7 @@ from core.line_timing import (
     time_path,
     timed_trajectory,
 )
+from core.path.line import StraightLine
 
 SINGULAR_VALUE_THRESHOLD = 1e-3
 """Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a point is
@@ -125,7 +125,7 @@ def path_rates(
             parts.append(path_rates(robot, line, positions[i : i + RATES_CHUNK], second_order))
         return PathRates(*(np.concatenate(a) for a in zip(*parts, strict=True)))
     rows = task_rows(robot.task_space)
-    V = line.twist(np.array([1.0]))[0][rows]
+    V = line.derivative(np.zeros(1))[0][rows]  # per unit s (constant along a line)
 
     def rates(qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # One SVD gives the smallest singular value and the pseudo-inverse (as np.linalg.pinv

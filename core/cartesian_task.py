@@ -19,7 +19,7 @@ from core.budget import NO_DEADLINE, Deadline
 from core.deviation import DeviationReport, measure_deviation
 from core.errors import InputError, JointLimit, JointRateLimit
 from core.kinematics import Kinematics, jacobians, task_rows
-from core.line import StraightLine
+from core.path.line import StraightLine
 from core.trajectory import Trajectory
 
 DEFAULT_MAX_LINEAR_SPEED = 0.25

@@ -33,7 +33,8 @@ from core.errors import (
 )
 from core.geometry import so3
 from core.kinematics import Kinematics, task_rows
-from core.line import LineDeviation, StraightLine
+from core.path.base import PathDeviation
+from core.path.line import StraightLine
 from core.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -339,7 +340,7 @@ def continuation(
     steps = int(np.ceil(max(line.length / CONTINUATION_STEP[0], line.angle / CONTINUATION_STEP[1])))
     ds_max = 1.0 / min(max(steps, 1), 256)
     rows = task_rows(kin.task_space)
-    twist = line.twist(np.ones(1))[0][rows]  # tool twist per unit s
+    twist = line.derivative(np.zeros(1))[0][rows]  # tool twist per unit s (a line: constant)
     s, q = 0.0, np.asarray(q_start, dtype=float)
     s_list, q_list = [s], [q]
     halved = 1.0
@@ -477,7 +478,7 @@ def taylor_knots(
 
 def strict_deviation(
     kin: Kinematics, line: StraightLine, q: np.ndarray, tol_p: float, tol_o: float
-) -> LineDeviation:
+) -> PathDeviation:
     """Deviation of configurations ``q`` (N, dof) from the line (``StraightLine.deviation``, whose
     orientation term already takes the larger of the two closest-point readings a client may use)."""
     return line.deviation(kin.fk_many(q), tol_p, tol_o)
@@ -485,7 +486,7 @@ def strict_deviation(
 
 def path_deviation(
     kin: Kinematics, line: StraightLine, path: KnotPath, s: np.ndarray, tol_p: float, tol_o: float
-) -> LineDeviation:
+) -> PathDeviation:
     """Deviation (``strict_deviation``) of the knot path at path parameters ``s`` (N,)."""
     return strict_deviation(kin, line, path(s), tol_p, tol_o)
 

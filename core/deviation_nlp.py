@@ -75,7 +75,7 @@ from core.deviation import (
 from core.errors import InputError, NoConvergence, TimeBudgetExceeded
 from core.geometry.so3 import skew
 from core.kinematics import Kinematics
-from core.line import StraightLine
+from core.path.line import StraightLine
 
 NLP_CHECKS = 8
 """Interior check points per knot segment in the NLP's constraints."""

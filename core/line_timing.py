@@ -4,11 +4,11 @@ A Cartesian method decides the path: joint positions q(s) for s in [0, end] (``e
 planned fraction of a partial plan) and their derivatives dq/ds, d2q/ds2. ``time_path`` decides, in
 one place for every method, how fast s advances; the path itself never changes:
 
-- ``duration`` given: a quintic rest-to-rest s(t) over it (``QuinticPath``). Joint speeds
+- ``duration`` given: a quintic rest-to-rest s(t) over it (``core.timing.quintic``). Joint speeds
   |dq/ds| s' must hold at every given s; where they do not, ``JointRateLimit`` names the first such
   s and the shortest duration that would hold (``extra["min_duration"]``): a requested duration is
   never stretched. Joint accelerations over their limits only warn (with the duration that avoids it).
-- otherwise: the shortest rest-to-rest s(t) (``GridTiming``) under the tool's speed limits
+- otherwise: the shortest rest-to-rest s(t) (``core.timing.speed_limited``) under the tool's speed limits
   (``CartesianTask.speeds()``, defaults 0.25 m/s and 1 rad/s) and accelerations
   (``DEFAULT_LINEAR_ACCELERATION`` 1 m/s^2, ``DEFAULT_ANGULAR_ACCELERATION`` 2 rad/s^2), and under
   the joints' limits: |dq/ds| s' <= v_max caps s'; with d2q/ds2, half of each joint's acceleration
@@ -26,13 +26,15 @@ accelerations d2q/ds2 s'^2 + dq/ds s'' by the chain rule, at rest at both ends.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
-from core.line import StraightLine
-from core.path_timing import QuinticTiming, joint_speed_cap, speed_limited
+from core.path.line import StraightLine
+from core.timing import TIMING_LAWS, Profile, TimingSpec
+from core.timing.caps import joint_speed_cap
+from core.timing.quintic import QUINTIC_PEAK_SPEED, QuinticTiming
 from core.trajectory import Trajectory, sample_times
 
 if TYPE_CHECKING:  # only a type here: core.cartesian_task imports modules that import this one
@@ -44,49 +46,11 @@ line is a Type II singularity ("no finite slow-down"): the tool would crawl at <
 ACCELERATION_SHARE = 0.5
 """Share of each joint's acceleration limit given to the curvature term d2q/ds2 s'^2; the rest
 bounds dq/ds s''."""
-QUINTIC_PEAK_SPEED = 1.875
-"""Peak s' of the quintic rest-to-rest profile is 1.875 / duration (for s from 0 to 1)."""
 MAX_DURATION = 1e5
 """Longest timed line [s] (the API's bound on ``duration``)."""
 _SLACK = 1e-9
 _CAP_MARGIN = 1.0 - 1e-6
 """Caps are applied slightly tightened so rounding never lands a sample over a limit."""
-
-
-class PathProfile(Protocol):
-    """s(t) on [0, duration]: ``profile(t, order)`` gives s, s' [1/s], s'' [1/s^2]."""
-
-    duration: float
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...
-
-    def time_at(self, s: np.ndarray) -> np.ndarray: ...
-
-
-class QuinticPath:
-    """s(t) = end * (10u^3 - 15u^4 + 6u^5), u = t / duration: a fixed duration [s], s in [0, end]."""
-
-    def __init__(self, duration: float, end: float = 1.0) -> None:
-        self._quintic = QuinticTiming(duration)
-        self.duration = float(duration)
-        self.end = float(end)
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
-        return self.end * self._quintic(t, order)
-
-    def phase(self, s: np.ndarray) -> np.ndarray:
-        """u in [0, 1] where the profile reaches ``s`` (exact inverse, by bisection)."""
-        target = np.clip(np.asarray(s, dtype=float) / self.end, 0.0, 1.0)
-        lo, hi = np.zeros_like(target), np.ones_like(target)
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            below = mid**3 * (10.0 - 15.0 * mid + 6.0 * mid**2) < target
-            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        return 0.5 * (lo + hi)
-
-    def time_at(self, s: np.ndarray) -> np.ndarray:
-        """Times [s] at which the profile reaches ``s``."""
-        return self.phase(s) * self.duration
 
 
 @dataclass(frozen=True)
@@ -100,7 +64,7 @@ class PathTiming:
         slowdown: Smallest ratio of the allowed path speed to the requested one (1.0: none).
     """
 
-    profile: PathProfile
+    profile: Profile
     end: float
     warnings: tuple[str, ...]
     slowdown: float = 1.0
@@ -173,15 +137,16 @@ def time_path(
             s=float(s[i]),
             extra={"min_speed_fraction": MIN_SPEED_FRACTION},
         )
-    profile = speed_limited(
-        line.length,
-        line.angle,
-        linear,
-        angular,
-        cap=cap * _CAP_MARGIN,
+    spec = TimingSpec(
+        length=line.length,
+        angle=line.angle,
+        max_linear_speed=linear,
+        max_angular_speed=angular,
         s=s,
+        cap=cap * _CAP_MARGIN,
         acceleration_cap=acc_cap,
     )
+    profile = TIMING_LAWS["speed_limited"](spec)
     if not profile.duration <= MAX_DURATION:
         raise Infeasible(
             f"the timed line would last {profile.duration:.4g} s, over the {MAX_DURATION:g} s limit",
@@ -210,7 +175,7 @@ def _fixed_duration(
     task: CartesianTask, T: float, s: np.ndarray, dq_ds: np.ndarray, d2: np.ndarray | None
 ) -> PathTiming:
     vmax, amax = task.robot.velocity_limits, task.robot.acceleration_limits
-    profile = QuinticPath(T, float(s[-1]))
+    profile = QuinticTiming(T, float(s[-1]))
     u = profile.phase(s)
     sdot = profile.end * 30.0 * u**2 * (1.0 - u) ** 2 / T
     ratio = np.abs(dq_ds) * sdot[:, None] / vmax

@@ -61,8 +61,7 @@ from core.errors import (
 )
 from core.geometry import so3
 from core.kinematics import fk_jacobian_loop, task_rows
-from core.line import StraightLine
-from core.path_timing import GridTiming, QuinticTiming, speed_limited
+from core.path.line import StraightLine
 from core.rate_qp import (
     REDUNDANCY_DAMPING,
     SINGULAR_REGION,
@@ -74,6 +73,7 @@ from core.rate_qp import (
     rate_bounds,
     solve_dls_qp,
 )
+from core.timing import TIMING_LAWS, Profile, TimingSpec
 
 FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
@@ -139,17 +139,19 @@ class RateRun:
     failure: PlanningError | None
 
 
-def nominal_timing(task: CartesianTask, line: StraightLine) -> QuinticTiming | GridTiming:
+def nominal_timing(task: CartesianTask, line: StraightLine) -> Profile:
     """s(t): quintic for ``task.duration``, else the speed-limited profile of ``task.speeds()``."""
     if task.duration is not None:
-        return QuinticTiming(task.duration)
-    return speed_limited(line.length, line.angle, *task.speeds())
+        return TIMING_LAWS["quintic"](TimingSpec(duration=task.duration))
+    linear, angular = task.speeds()
+    spec = TimingSpec(line.length, line.angle, max_linear_speed=linear, max_angular_speed=angular)
+    return TIMING_LAWS["speed_limited"](spec)
 
 
 class _Setpoint:
     """Pose, twist and s on the line at path-clock time tau (s(t) tabulated per tick)."""
 
-    def __init__(self, line: StraightLine, timing: QuinticTiming | GridTiming, dt: float, n: int):
+    def __init__(self, line: StraightLine, timing: Profile, dt: float, n: int):
         grid = np.arange(n + 2) * dt
         self.s, self.sd, self.dt, self.end = timing(grid), timing(grid, 1), dt, n * dt
         self.line, theta = line, line.angle

@@ -35,7 +35,7 @@ from core.errors import (
     Unreachable,
 )
 from core.kinematics import IKResult
-from core.line import StraightLine
+from core.path.line import StraightLine
 from robots import registry
 from tests.toy_kinematics import ToyPlanar2R
 

@@ -9,7 +9,7 @@ import pytest
 
 import core.cartesian as cartesian
 from core.cartesian_task import CartesianTask, plan
-from core.line import StraightLine
+from core.path.line import StraightLine
 from robots import registry
 
 

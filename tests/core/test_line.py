@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from core.line import StraightLine, pose_error
+from core.path.line import StraightLine, pose_error
 
 
 def _pose(p, rotvec):

@@ -9,13 +9,13 @@ from core.cartesian_task import CartesianTask
 from core.errors import JointRateLimit, Singularity
 from core.line_timing import (
     MIN_SPEED_FRACTION,
-    QuinticPath,
     nominal_path_speed,
     sample_path,
     time_path,
     timed_trajectory,
 )
-from core.path_timing import GridTiming
+from core.timing.quintic import QuinticTiming
+from core.timing.speed_limited import GridTiming
 from tests.toy_kinematics import ToyPlanar2R
 
 
@@ -78,7 +78,7 @@ def test_samples_and_chain_rule():
     timing = time_path(task, task.line(), S, dq)
     times, s = sample_path(task, timing)
     assert np.allclose(s, np.linspace(0, 1, 9)) and times[-1] == 2.0
-    assert np.allclose(QuinticPath(2.0)(times), s, atol=1e-12)
+    assert np.allclose(QuinticTiming(2.0)(times), s, atol=1e-12)
     q = s[:, None] * [0.3, 0.2]
     traj = timed_trajectory(times, timing, q, np.tile([0.3, 0.2], (9, 1)), np.zeros((9, 2)))
     assert np.all(traj.velocities[[0, -1]] == 0.0)

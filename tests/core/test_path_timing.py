@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.path_timing import GridTiming, QuinticTiming, joint_speed_cap, speed_limited
+from core.timing.caps import joint_speed_cap
+from core.timing.quintic import QuinticTiming
+from core.timing.speed_limited import GridTiming, speed_limited
 
 
 def test_quintic_rest_to_rest_and_peak():

@@ -1,10 +1,8 @@
-"""Path-parameter profiles s(t) for Cartesian motion, shared by every Cartesian method.
+"""The speed-limited s(t): the shortest rest-to-rest profile under tool and joint limits.
 
 The tool moves along a fixed geometric path parameterized by s in [0, 1]; timing only decides how fast
-s advances, so re-timing never changes the path. Two nominal profiles, both rest-to-rest:
+s advances, so re-timing never changes the path (the fixed-duration law is ``core.timing.quintic``).
 
-- ``QuinticTiming(T)``: a given duration T; s(t) = 10u^3 - 15u^4 + 6u^5 with u = t/T (zero speed and
-  acceleration at both ends; peak s' = 1.875/T).
 - ``GridTiming``: the shortest time under a speed cap s'_max(s) and an acceleration bound s''_max,
   built by the classic forward/backward pass on the phase plane (s, s'^2): a trapezoid (or triangle)
   when the cap is constant, and a slow-down only where the cap is lower, e.g. where joint rates would
@@ -22,30 +20,6 @@ DEFAULT_LINEAR_ACCELERATION = 1.0
 DEFAULT_ANGULAR_ACCELERATION = 2.0
 """Tool angular acceleration [rad/s^2] used with ``max_angular_speed`` when the request gives none."""
 _GRID = 2001
-
-
-class QuinticTiming:
-    """s(t) for a fixed duration ``duration`` [s]: quintic, rest to rest."""
-
-    def __init__(self, duration: float) -> None:
-        if not np.isfinite(duration) or duration <= 0:
-            raise InputError("duration must be > 0 s", field=("duration",))
-        self.duration = float(duration)
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
-        """s (order 0), s' [1/s] (1) or s'' [1/s^2] (2) at times ``t`` [s]."""
-        T = self.duration
-        u = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
-        if order == 0:
-            return u**3 * (10.0 - 15.0 * u + 6.0 * u**2)
-        if order == 1:
-            return 30.0 * u**2 * (1.0 - u) ** 2 / T
-        return 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / T**2
-
-    def time_at(self, s: np.ndarray) -> np.ndarray:
-        """Times [s] at which the profile reaches path parameters ``s`` (monotone inverse)."""
-        t = np.linspace(0.0, self.duration, 4001)
-        return np.interp(np.asarray(s, dtype=float), self(t), t)
 
 
 class GridTiming:
@@ -147,18 +121,3 @@ def speed_limited(
     if acceleration_cap is not None:
         return GridTiming(grid, full, np.minimum(sddot_max, acceleration_cap))
     return GridTiming(grid, full, sddot_max)
-
-
-def joint_speed_cap(dq_ds: np.ndarray, velocity_limits: np.ndarray) -> np.ndarray:
-    """Largest s' [1/s] at each sample so that |dq/ds| s' <= the joint velocity limits.
-
-    Args:
-        dq_ds: Joint path derivative, shape ``(K, dof)`` [rad per unit s].
-        velocity_limits: ``(dof,)`` [rad/s].
-
-    Returns:
-        ``(K,)``; ``inf`` where the joints do not move.
-    """
-    with np.errstate(divide="ignore"):
-        ratio = np.where(np.abs(dq_ds) > 0, velocity_limits / np.abs(dq_ds), np.inf)
-    return ratio.min(axis=1)

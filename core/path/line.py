@@ -14,28 +14,12 @@ position alone, so the bound holds whichever of the two ways a client measures i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from core.geometry import so3
+from core.path.base import PathDeviation
 
 _EPS = 1e-12
-
-
-@dataclass(frozen=True)
-class LineDeviation:
-    """Deviation of N poses from a line.
-
-    Attributes:
-        s: Closest path parameter of each pose, shape ``(N,)``.
-        position: Distance [m] from each pose's position to the line point at ``s``, ``(N,)``.
-        orientation: Angle [rad] between each pose's orientation and the line's at ``s``, ``(N,)``.
-    """
-
-    s: np.ndarray
-    position: np.ndarray
-    orientation: np.ndarray
 
 
 class StraightLine:
@@ -103,12 +87,16 @@ class StraightLine:
         omega = self.R0 @ self.rotvec
         return np.hstack([s_dot[:, None] * self.delta_p, s_dot[:, None] * omega])
 
+    def derivative(self, s: np.ndarray) -> np.ndarray:
+        """``(N, 6)`` d(pose)/ds at ``s`` (N,): constant along a line, ``[delta_p, R0 rotvec]``."""
+        return self.twist(np.ones(np.size(s)))
+
     def deviation(
         self,
         T: np.ndarray,
         position_tolerance: float = 1e-3,
         orientation_tolerance: float = 1e-2,
-    ) -> LineDeviation:
+    ) -> PathDeviation:
         """Deviation of poses ``T`` (N, 4, 4) from the line (see the module docstring).
 
         The tolerances [m], [rad] only weigh position against orientation when choosing the closest
@@ -157,7 +145,7 @@ class StraightLine:
                 s_p = np.clip(s_pos, 0.0, 1.0)
                 err_p = np.swapaxes(self.rotation_matrices(s_p), 1, 2) @ T[:, :3, :3]
                 orientation = np.maximum(orientation, np.linalg.norm(so3.log(err_p), axis=1))
-        return LineDeviation(s=s, position=position, orientation=orientation)
+        return PathDeviation(s=s, position=position, orientation=orientation)
 
 
 def pose_error(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
