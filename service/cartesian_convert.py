@@ -17,7 +17,9 @@ from typing import Any
 import numpy as np
 
 from core.budget import Deadline
-from core.cartesian_task import CartesianResult, CartesianTask, min_singular_values, plan
+from core.cartesian.measure import min_singular_values
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.kinematics import IKResult
+from core.kinematics import DerivedKinematics, IKResult
 
 
-class ToyPlanar2R:
+class ToyPlanar2R(DerivedKinematics):
     name = "toy_planar_2r"
     joint_names = ("shoulder", "elbow")
     dof = 2
@@ -53,6 +53,7 @@ class ToyPlanar2R:
         max_iterations=100,
         position_tolerance=1e-6,
         orientation_tolerance=1e-6,
+        respect_limits=True,
     ) -> IKResult:
         x, y = T_base_tool[0, 3], T_base_tool[1, 3]
         c2 = (x * x + y * y - self.l1**2 - self.l2**2) / (2 * self.l1 * self.l2)

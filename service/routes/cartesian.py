@@ -1,6 +1,6 @@
 """POST /v1/trajectories/cartesian: the tool on the straight line from FK(start) to the goal pose.
 
-Thin route: schema -> ``CartesianTask`` (``service.cartesian_convert``) -> ``core.cartesian_task.plan``
+Thin route: schema -> ``CartesianTask`` (``service.cartesian_convert``) -> ``core.cartesian.plan.plan``
 -> response. Every method of API.md is accepted and passed on to the core's dispatch. Plain ``def``:
 planning is CPU-bound, so FastAPI runs it in its thread pool.
 """

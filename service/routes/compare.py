@@ -14,7 +14,7 @@ from fastapi import APIRouter, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.cartesian_task import METHODS
+from core.cartesian.methods import METHODS
 from core.errors import PlanningError
 from robots import registry
 from service import cartesian_convert

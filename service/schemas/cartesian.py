@@ -24,7 +24,7 @@ from service.schemas.common import (
 Method = Literal[
     "sampled", "bounded_deviation", "bounded_deviation_nlp", "resolved_rate", "resolved_rate_dls"
 ]
-"""The methods of API.md (``core.cartesian_task.METHODS``; a test keeps the two equal)."""
+"""The methods of API.md (``core.cartesian.methods.METHODS``; a test keeps the two equal)."""
 
 MAX_LINEAR_SPEED = 10.0
 """Largest ``max_linear_speed`` [m/s] accepted."""

@@ -1,4 +1,4 @@
-"""Taylor's bounded deviation (``core.deviation.plan_bounded_deviation``).
+"""Taylor's bounded deviation (``core.cartesian.methods.bounded_deviation``).
 
 The deviation promise is checked here independently of the planner's own measurement: between every
 two consecutive returned points, joints interpolated linearly and by cubic Hermite at 12 points, FK by
@@ -16,15 +16,12 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation, Slerp
 
 from core.budget import Deadline
-from core.cartesian_task import CartesianResult, CartesianTask, plan
-from core.deviation import (
-    KnotPath,
-    Knots,
-    continuation,
-    measure_deviation,
-    reference_at,
-    taylor_knots,
-)
+from core.cartesian.ik_on_path import continuation, reference_at
+from core.cartesian.knot_path import KnotPath, Knots
+from core.cartesian.measure import measure_deviation
+from core.cartesian.methods.bounded_deviation import taylor_knots
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
     BranchFlip,
     Infeasible,
@@ -34,7 +31,7 @@ from core.errors import (
     TimeBudgetExceeded,
     Unreachable,
 )
-from core.kinematics import IKResult, task_rows
+from core.kinematics import DerivedKinematics, IKResult, task_rows
 from core.path.line import StraightLine
 from core.trajectory import Trajectory
 from tests.toy_kinematics import ToyPlanar2R
@@ -181,7 +178,7 @@ def shipped_task(name: str, **extra) -> CartesianTask:
 # --- constructed kinematics -----------------------------------------------------------------
 
 
-class WarpedGantry:
+class WarpedGantry(DerivedKinematics):
     """An x-y gantry whose y carriage is warped along x: tip y = q2 + A sin(2 pi m q1).
 
     Moving x from 0 to 1 with q2 = 0 by joint interpolation, the tip strays from the line y = 0 by
@@ -217,7 +214,14 @@ class WarpedGantry:
         return J
 
     def ik(
-        self, T, seed, *, max_iterations=100, position_tolerance=1e-6, orientation_tolerance=1e-6
+        self,
+        T,
+        seed,
+        *,
+        max_iterations=100,
+        position_tolerance=1e-6,
+        orientation_tolerance=1e-6,
+        respect_limits=True,
     ):
         x, y = T[0, 3], T[1, 3]
         q = np.array([x, y - self.A * np.sin(2 * np.pi * self.m * x)])
@@ -226,7 +230,7 @@ class WarpedGantry:
         return IKResult(q, inside, 0.0, 0.0, 1, inside)
 
     def fk_casadi(self):
-        """Symbolic FK (for ``core.deviation_nlp``)."""
+        """Symbolic FK (for ``core.cartesian.knot_nlp``)."""
         import casadi as ca
 
         q = ca.SX.sym("q", 2)
@@ -318,7 +322,7 @@ def test_goal_positions_on_the_branch_are_the_last_point():
     result = plan(task, "bounded_deviation")
     assert_valid(task, result)
     np.testing.assert_array_equal(result.trajectory.positions[-1], q_goal)
-    assert result.warnings == []
+    assert result.warnings == ()
 
 
 def test_goal_positions_on_another_branch_end_on_the_start_branch_with_a_warning():

@@ -13,16 +13,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from core import cartesian
 from core.budget import Deadline
-from core.cartesian import (
-    SINGULAR_VALUE_THRESHOLD,
-    check_grid,
-    path_rates,
-    plan_sampled,
-    walk_line,
-)
-from core.cartesian_task import CartesianTask, plan
+from core.cartesian import walk as walk_module
+from core.cartesian.methods.sampled import plan_sampled
+from core.cartesian.path_rates import path_rates
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
+from core.cartesian.walk import SINGULAR_VALUE_THRESHOLD, check_grid, walk_line
 from core.errors import (
     BranchFlip,
     Infeasible,
@@ -331,12 +328,12 @@ def test_path_rates_are_the_derivatives_of_the_ik_path():
 def test_check_grid_follows_the_tolerance():
     task = ur5_line()
     line = task.line()
-    assert len(check_grid(task, line)) == cartesian.MIN_INTERVALS + 1
+    assert len(check_grid(task, line)) == walk_module.MIN_INTERVALS + 1
     fine = ur5_line(position_tolerance=1e-4)
-    n = math.ceil(line.length / (cartesian.STEP_PER_TOLERANCE * 1e-4))
+    n = math.ceil(line.length / (walk_module.STEP_PER_TOLERANCE * 1e-4))
     assert len(check_grid(fine, line)) == n + 1
     tiny = ur5_line(position_tolerance=1e-6)
-    assert len(check_grid(tiny, line)) == cartesian.MAX_INTERVALS + 1
+    assert len(check_grid(tiny, line)) == walk_module.MAX_INTERVALS + 1
 
 
 class FlippingToy(ToyPlanar2R):
@@ -421,7 +418,7 @@ def test_walk_refines_near_trouble():
     task = planar_task((-0.8, 0.05), (0.8, 0.05))
     walk = walk_line(task, task.line())
     assert isinstance(walk.failure, Unreachable)
-    assert np.min(np.diff(walk.s)) <= 2 * cartesian.MIN_STEP
+    assert np.min(np.diff(walk.s)) <= 2 * walk_module.MIN_STEP
     assert np.all(np.diff(walk.s) > 0)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.deviation import dense_times, interpolate_linear, measure_deviation
+from core.cartesian.measure import dense_times, interpolate_linear, measure_deviation
 from core.path.line import StraightLine
 from core.trajectory import Trajectory
 from tests.toy_kinematics import ToyPlanar2R

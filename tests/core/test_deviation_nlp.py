@@ -1,4 +1,4 @@
-"""Bounded deviation as constraints (``core.deviation_nlp``): the NLP's pieces against independent
+"""Bounded deviation as constraints (``core.cartesian.knot_nlp``): the NLP's pieces against independent
 formulations, the promise on the shipped robots (checked by ``independent_deviation``, not read from
 the diagnostics), fewer knots than Taylor's method on the issue's UR5 move, and the failure codes."""
 
@@ -11,20 +11,23 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import core.deviation_nlp as dn
+import core.cartesian.knot_nlp as knot_nlp
+import core.cartesian.methods.bounded_deviation_nlp as dn
 from core.budget import Deadline
-from core.cartesian_task import CartesianTask, plan
-from core.deviation import MARGIN, KnotPath, Knots
-from core.deviation_nlp import (
+from core.cartesian.knot_nlp import (
     build_knot_nlp,
     check_weights,
     deviation_constraints,
     deviation_function,
     knot_parameters,
-    plan_bounded_deviation_nlp,
     solve_knot_nlp,
     spline_equations,
 )
+from core.cartesian.knot_path import KnotPath, Knots
+from core.cartesian.knots import MARGIN
+from core.cartesian.methods.bounded_deviation_nlp import plan_bounded_deviation_nlp
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
 from core.errors import (
     BranchFlip,
     InputError,
@@ -164,7 +167,7 @@ def test_assembled_derivatives_equal_casadis_own(name, count, monkeypatch):
     dev = deviation_function(fk_casadi(robot), line, 1e-3, 1e-2)
     ends = knots.positions[0], knots.positions[-1]
     ours = build_knot_nlp(dev, robot, s, *ends, checks=3)
-    monkeypatch.setattr(dn, "_derivatives", lambda *args: {})
+    monkeypatch.setattr(knot_nlp, "derivatives", lambda *args: {})
     casadis = build_knot_nlp(dev, robot, s, *ends, checks=3)
     rng = np.random.default_rng(count)
     x = ours.x_of(KnotPath(knots)(s)) + rng.normal(scale=1e-2, size=len(ours.lbx))

@@ -7,8 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import core.cartesian as cartesian
-from core.cartesian_task import CartesianTask, plan
+import core.cartesian.methods.sampled as sampled
+from core.cartesian.path_rates import path_rates
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
 from core.path.line import StraightLine
 from robots import registry
 
@@ -29,7 +31,7 @@ def tasks() -> list[CartesianTask]:
 @pytest.mark.parametrize("task", tasks(), ids=lambda t: f"{t.robot.name}-{t.samples}")
 def test_batched_returned_points_equal_the_one_point_path(task, monkeypatch) -> None:
     fast = plan(task, "sampled")
-    monkeypatch.setattr(cartesian, "BATCH_MIN_POINTS", 10**9)  # the one-point path only
+    monkeypatch.setattr(sampled, "BATCH_MIN_POINTS", 10**9)  # the one-point path only
     slow = plan(task, "sampled")
     assert fast.trajectory.positions.shape == slow.trajectory.positions.shape
     assert np.abs(fast.trajectory.positions - slow.trajectory.positions).max() <= 1e-7
@@ -44,7 +46,7 @@ def test_path_rates_pseudo_inverse_equals_numpys() -> None:
     T1 = T0.copy()
     T1[:3, 3] += [0.1, 0.0, -0.1]
     line = StraightLine(T0, T1)
-    rates = cartesian.path_rates(robot, line, qs, second_order=False)
+    rates = path_rates(robot, line, qs, second_order=False)
     V = line.twist(np.array([1.0]))[0]
     expected = np.array([np.linalg.pinv(robot.jacobian(q)) @ V for q in qs])
     np.testing.assert_allclose(rates.dq_ds, expected, rtol=0, atol=1e-9)

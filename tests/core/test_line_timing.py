@@ -5,15 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.cartesian_task import CartesianTask
+from core.cartesian.task import CartesianTask
+from core.cartesian.timing import nominal_path_speed, sample_path, time_path, timed_trajectory
+from core.cartesian.walk import MIN_SPEED_FRACTION
 from core.errors import JointRateLimit, Singularity
-from core.line_timing import (
-    MIN_SPEED_FRACTION,
-    nominal_path_speed,
-    sample_path,
-    time_path,
-    timed_trajectory,
-)
 from core.timing.quintic import QuinticTiming
 from core.timing.speed_limited import GridTiming
 from tests.toy_kinematics import ToyPlanar2R

@@ -17,7 +17,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from core.budget import Deadline
-from core.cartesian_task import CartesianTask, plan
+from core.cartesian.plan import plan
+from core.cartesian.rate.control import simulate
+from core.cartesian.task import CartesianTask
 from core.errors import (
     InputError,
     JointLimit,
@@ -27,7 +29,6 @@ from core.errors import (
     TimeBudgetExceeded,
     TooLarge,
 )
-from core.rate_control import simulate
 from tests.toy_kinematics import ToyPlanar2R
 
 METHODS = ("resolved_rate", "resolved_rate_dls")
@@ -67,7 +68,7 @@ def test_toy_arm_tracks_line(method):
     assert result.fraction == 1.0 and result.trajectory.duration == pytest.approx(2.0)
     assert result.deviation.max_position <= 1e-4
     assert np.linalg.norm(robot.fk(result.trajectory.positions[-1])[:2, 3] - [0.6, 1.0]) <= 1e-4
-    assert result.warnings == []
+    assert result.warnings == ()
 
 
 @pytest.mark.parametrize("name", ["ur5", "panda"])

@@ -11,12 +11,9 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from core.errors import InputError
-from core.kinematics import task_rows
-from core.rate_qp import (
+from core.cartesian.rate.control import REDUNDANCY_DAMPING, SINGULAR_REGION
+from core.cartesian.rate.qp import (
     MAX_DAMPING,
-    REDUNDANCY_DAMPING,
-    SINGULAR_REGION,
     DlsQpSolver,
     RateLimits,
     bounded_least_squares,
@@ -26,6 +23,8 @@ from core.rate_qp import (
     rate_bounds,
     solve_dls_qp,
 )
+from core.errors import InputError
+from core.kinematics import task_rows
 
 DT = 1e-3
 

@@ -13,7 +13,7 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
-from core.cartesian_task import METHODS
+from core.cartesian.methods import METHODS
 from core.geometry.so3 import pose_to_matrix
 from robots import registry
 from service.app import create_app

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core.cartesian_task import METHODS
+from core.cartesian.methods import METHODS
 from robots import registry
 from service.app import create_app
 

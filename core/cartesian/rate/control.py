@@ -22,7 +22,7 @@ The nominal duration T is split into whole ticks of ``dt = T / ceil(T / control_
      It refuses to step where the smallest singular value is below ``PINV_SINGULAR_THRESHOLD``
      (``Singularity``), where a rate exceeds its limit (``JointRateLimit``, the notes' warning) or
      where the step would leave the position limits (``JointLimit``), each with ``s``.
-   - ``resolved_rate_dls``: the QP of ``core.rate_qp`` with ``lambda = damping(sigma_min)`` (at
+   - ``resolved_rate_dls``: the QP of ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at
      least ``REDUNDANCY_DAMPING`` for a redundant arm, so the step is the minimum-norm one); its
      rates always respect the velocity and position limits. Near a singularity the tool leaves the
      line (measured and reported). So that velocity bounds slow the tool down along the line rather
@@ -39,7 +39,7 @@ warning); otherwise the DLS fails with ``JointLimit`` (a joint held at its posit
 ``JointRateLimit`` (the velocity limits kept the path clock from the end), ``Singularity`` (stuck
 where the damping is active: a singularity or the workspace boundary) or ``NoConvergence``.
 
-``core.rate_output`` turns the ticks into the response (sampling, partial prefixes, diagnostics).
+``core.cartesian.rate.output`` turns the ticks into the response (sampling, partial prefixes, diagnostics).
 """
 
 from __future__ import annotations
@@ -49,20 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.cartesian_task import CartesianResult, CartesianTask, validated_line
-from core.errors import (
-    InputError,
-    JointLimit,
-    JointRateLimit,
-    NoConvergence,
-    PlanningError,
-    Singularity,
-    TooLarge,
-)
-from core.geometry import so3
-from core.kinematics import fk_jacobian_loop, task_rows
-from core.path.line import StraightLine
-from core.rate_qp import (
+from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
     SINGULAR_REGION,
     DlsQpSolver,
@@ -73,6 +60,20 @@ from core.rate_qp import (
     rate_bounds,
     solve_dls_qp,
 )
+from core.cartesian.task import CartesianTask
+from core.cartesian.validate import validated_line
+from core.errors import (
+    InputError,
+    JointLimit,
+    JointRateLimit,
+    NoConvergence,
+    PlanningError,
+    Singularity,
+    TooLarge,
+)
+from core.geometry import so3
+from core.kinematics import task_rows
+from core.path.line import StraightLine
 from core.timing import TIMING_LAWS, Profile, TimingSpec
 
 FEEDBACK_GAIN = 20.0
@@ -213,7 +214,7 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
     its, times, active = np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n, dtype=bool)
     fallbacks, failure, first_limit, tau = 0, None, None, 0.0
     e_o = np.zeros(3)
-    kinematics = fk_jacobian_loop(robot)  # one scratch space for the run (this thread only)
+    kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
     for k in range(n):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
@@ -345,17 +346,3 @@ def _stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningEr
     return NoConvergence(
         f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
     )
-
-
-def plan_resolved_rate(task: CartesianTask) -> CartesianResult:
-    """The ``resolved_rate`` method: pseudo-inverse resolved-rate control (a finished result)."""
-    from core.rate_output import result_of  # it builds on this module
-
-    return result_of(task, simulate(task, "resolved_rate"), "resolved_rate")
-
-
-def plan_resolved_rate_dls(task: CartesianTask) -> CartesianResult:
-    """The ``resolved_rate_dls`` method: damped least squares as a QP (a finished result)."""
-    from core.rate_output import result_of
-
-    return result_of(task, simulate(task, "resolved_rate_dls"), "resolved_rate_dls")

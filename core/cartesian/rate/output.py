@@ -1,6 +1,6 @@
 """From simulated control ticks to a response: the sampled trajectory, its checks and diagnostics.
 
-``result_of`` turns a ``core.rate_control.RateRun`` into a finished ``CartesianResult``:
+``result_of`` turns a ``core.cartesian.rate.control.RateRun`` into a finished ``CartesianResult``:
 
 - Sampling: ``sample_period`` or ``samples`` over the run; positions interpolated linearly between
   ticks (exactly the explicit-Euler path), velocities the rates commanded over the tick, zero at the
@@ -11,19 +11,21 @@
   a uniform deceleration of the path clock whose rate ``a`` keeps ``|qd_i| a <= a_max_i`` for the
   prefix's peak rates (the path's own curvature is not counted). ``fraction`` is the line parameter
   of the closest point to the tool's final pose.
-- Checks and measurements: ``core.cartesian_task.finish`` (limits, dense deviation, singular values),
+- Checks and measurements: ``core.cartesian.check.finish`` (limits, dense deviation, singular values),
   then the controller's own figures in ``diagnostics`` and what a client should know in ``warnings``.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from core.cartesian_task import CartesianResult, CartesianTask, finish
-from core.rate_control import GOAL_FRACTION, RateRun
-from core.rate_qp import SINGULAR_REGION
+from core.cartesian.check import finish
+from core.cartesian.rate.control import GOAL_FRACTION, RateRun
+from core.cartesian.rate.qp import SINGULAR_REGION
+from core.cartesian.task import CartesianResult, CartesianTask
 from core.trajectory import Trajectory, sample_times
 
 GOAL_CONFIGURATION_WARNING = 1e-3
@@ -47,10 +49,9 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
         fraction = min(float(closest[m]), float(np.nextafter(1.0, 0.0)))
     trajectory, s_points = _sample(task, run, m, brake=run.failure is not None)
     result = CartesianResult(trajectory=trajectory, fraction=fraction, failure=run.failure)
-    finish(task, result, s_points)
-    result.diagnostics = _diagnostics(task, run, method, result)
-    result.warnings = _warnings(task, run, result)
-    return result
+    result = finish(task, result, s_points)
+    result = replace(result, diagnostics=_diagnostics(task, run, method, result))
+    return replace(result, warnings=tuple(_warnings(task, run, result)))
 
 
 def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.ndarray, int]:

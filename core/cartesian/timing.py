@@ -26,19 +26,16 @@ accelerations d2q/ds2 s'^2 + dq/ds s'' by the chain rule, at rest at both ends.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from core.cartesian.task import CartesianTask
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
 from core.path.line import StraightLine
 from core.timing import TIMING_LAWS, Profile, TimingSpec
 from core.timing.caps import joint_speed_cap
 from core.timing.quintic import QUINTIC_PEAK_SPEED, QuinticTiming
 from core.trajectory import Trajectory, sample_times
-
-if TYPE_CHECKING:  # only a type here: core.cartesian_task imports modules that import this one
-    from core.cartesian_task import CartesianTask
 
 MIN_SPEED_FRACTION = 1e-3
 """Slowest the joint limits may make the tool, as a share of the requested path speed; below it the
