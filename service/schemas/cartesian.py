@@ -2,7 +2,7 @@
 
 ``CartesianTaskSpec`` is everything but the method, so ``/v1/compare`` reuses it as its ``task``;
 ``CartesianRequest`` adds ``method``. Every field carries its unit and bounds. Lengths that depend
-on the robot (``start.positions``, ``goal.positions``) are checked in ``service/cartesian_convert.py``.
+on the robot (``start.positions``, ``goal.positions``) are checked in ``service/convert/cartesian.py``.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from core.cartesian.methods import METHODS
 from service.schemas.common import (
     MAX_DURATION,
     JointPositions,
@@ -21,10 +22,9 @@ from service.schemas.common import (
     TrajectoryResponse,
 )
 
-Method = Literal[
-    "sampled", "bounded_deviation", "bounded_deviation_nlp", "resolved_rate", "resolved_rate_dls"
-]
-"""The methods of API.md (``core.cartesian.methods.METHODS``; a test keeps the two equal)."""
+Method = Literal[tuple(METHODS)]  # type: ignore[valid-type]
+"""The method names, built from the registry ``core.cartesian.methods.METHODS``: a method added
+there is accepted here, so the API cannot drift from the code."""
 
 MAX_LINEAR_SPEED = 10.0
 """Largest ``max_linear_speed`` [m/s] accepted."""

@@ -1,8 +1,9 @@
 """Cartesian requests -> ``CartesianTask``, and ``CartesianResult`` -> response bodies.
 
 Shared by ``POST /v1/trajectories/cartesian`` and ``POST /v1/compare``: ``task_from_spec`` builds the
-task from the method-independent part of a request; ``run`` plans it with one method; ``diagnostics``
-and ``result_body`` give every method the same diagnostics (the API's ``fraction``,
+task once from the method-independent part of a request; ``run`` plans it with one method;
+``diagnostics`` and ``result_body`` only format what the core result carries (every method the same
+diagnostics (the API's ``fraction``,
 ``max_position_deviation``, ``max_orientation_deviation``, ``min_singular_value``, ``knot_count``;
 ``failure`` for a partial plan; small ``deviation_profile`` and ``singular_value_profile`` arrays for
 plotting) and the top-level ``knots`` of the bounded-deviation methods.
@@ -17,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from core.budget import Deadline
-from core.cartesian.measure import min_singular_values
 from core.cartesian.plan import plan
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import InputError, JointLimit, PlanningError, TooLarge
@@ -124,9 +124,7 @@ def failure_body(err: BaseException) -> dict[str, Any]:
     return {"code": "infeasible", "title": "Planning failed", "s": None, "detail": str(err)}
 
 
-def diagnostics(
-    task: CartesianTask, result: CartesianResult, method: str, compute_time_ms: float
-) -> dict[str, Any]:
+def diagnostics(result: CartesianResult, method: str, compute_time_ms: float) -> dict[str, Any]:
     """The diagnostics of a Cartesian plan (every method alike; see the module docstring)."""
     traj = result.trajectory
     diag = base_diagnostics(traj, method, compute_time_ms)
@@ -150,11 +148,12 @@ def diagnostics(
             "position": np.maximum.reduceat(dev.position, edges).tolist(),
             "orientation": np.maximum.reduceat(dev.orientation, edges).tolist(),
         }
-    idx, _ = _bins(len(traj.times))
-    diag["singular_value_profile"] = {
-        "time_from_start": traj.times[idx].tolist(),
-        "value": min_singular_values(task.robot, traj.positions[idx]).tolist(),
-    }
+    if result.singular_values is not None:
+        idx, _ = _bins(len(traj.times))
+        diag["singular_value_profile"] = {
+            "time_from_start": traj.times[idx].tolist(),
+            "value": result.singular_values[idx].tolist(),
+        }
     return diag
 
 
@@ -171,14 +170,13 @@ def knots_body(result: CartesianResult, time_format: str = "float") -> list[dict
 
 
 def result_body(
-    task: CartesianTask,
     result: CartesianResult,
     method: str,
     compute_time_ms: float,
     time_format: str = "float",
 ) -> dict[str, Any]:
     """The response document: the trajectory, its diagnostics and (bounded deviation) ``knots``."""
-    diag = diagnostics(task, result, method, compute_time_ms)
+    diag = diagnostics(result, method, compute_time_ms)
     knots = knots_body(result, time_format)
     extra = {} if knots is None else {"knots": knots}
     return trajectory_body(result.trajectory, diag, time_format, **extra)
