@@ -6,6 +6,8 @@ the planning math is tested without the robots package.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from core.kinematics import DerivedKinematics, IKResult
@@ -70,3 +72,15 @@ class ToyPlanar2R(DerivedKinematics):
         inside = bool(np.all(best >= lo) and np.all(best <= hi))
         ok = err <= position_tolerance and inside
         return IKResult(best, ok, err, 0.0, 1, inside)
+
+
+class FlippingToy(ToyPlanar2R):
+    """The toy arm whose IK answers the other elbow branch past x = 1.1 m (a branch flip)."""
+
+    def ik(self, T_base_tool, seed, **kw) -> IKResult:
+        r = super().ik(T_base_tool, seed, **kw)
+        if T_base_tool[0, 3] <= 1.1:
+            return r
+        q1, q2 = r.positions
+        other = np.array([q1 + 2 * math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), -q2])
+        return r._replace(positions=other)

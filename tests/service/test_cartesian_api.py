@@ -20,7 +20,7 @@ from service.app import create_app
 from service.schemas.cartesian import Method
 from service.settings import Settings
 from tests.ros_rules import check_ros_trajectory
-from tests.toy_kinematics import ToyPlanar2R
+from tests.toy_kinematics import FlippingToy
 
 URL = "/v1/trajectories/cartesian"
 UR5_HOME = [0.0, -math.pi / 3, math.pi / 2, -2 * math.pi / 3, -math.pi / 2, 0.0]
@@ -281,20 +281,8 @@ def test_time_budget_exceeded():
         problem(c.post(URL, json=UR5_LINE), 422, "time_budget_exceeded")
 
 
-class _FlippingArm(ToyPlanar2R):
-    """A toy arm whose IK jumps to the other elbow branch past x = 1.1 m."""
-
-    def ik(self, T_base_tool, seed, **kw):
-        r = super().ik(T_base_tool, seed, **kw)
-        if T_base_tool[0, 3] <= 1.1:
-            return r
-        q1, q2 = r.positions
-        other = np.array([q1 + 2 * math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), -q2])
-        return r._replace(positions=other)
-
-
 def test_branch_flip(client, monkeypatch):
-    monkeypatch.setattr(registry, "resolve", lambda ref: _FlippingArm())
+    monkeypatch.setattr(registry, "resolve", lambda ref: FlippingToy())
     request = {
         "robot": "planar_2r",
         "start": {"positions": [0.2, 1.4]},

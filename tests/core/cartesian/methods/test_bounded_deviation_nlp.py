@@ -36,10 +36,11 @@ from core.errors import (
     TimeBudgetExceeded,
     Unreachable,
 )
-from tests.core.test_bounded_deviation import (
+from tests.core.conftest import (
     assert_valid,
     gantry_task,
     independent_deviation,
+    offset_move,
     registry_robot,
     shipped_task,
     ur5_task,
@@ -300,7 +301,6 @@ def test_unreachable_and_partial_prefix():
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", range(16))
 def test_random_moves(seed):
-    from tests.core.test_bounded_deviation import offset_move
 
     rng = np.random.default_rng(seed)
     robot = registry_robot(("ur5", "puma560", "panda", "planar_2r")[seed % 4])

@@ -29,16 +29,11 @@ from core.errors import (
     TimeBudgetExceeded,
     TooLarge,
 )
+from tests.core.conftest import xy
 from tests.toy_kinematics import ToyPlanar2R
 
 METHODS = ("resolved_rate", "resolved_rate_dls")
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "puma_wrist_dls.py"
-
-
-def _xy(x: float, y: float) -> np.ndarray:
-    T = np.eye(4)
-    T[:2, 3] = x, y
-    return T
+EXAMPLE = Path(__file__).resolve().parents[4] / "examples" / "puma_wrist_dls.py"
 
 
 def _check_response(task: CartesianTask, result) -> None:
@@ -62,7 +57,7 @@ def registry():
 @pytest.mark.parametrize("method", METHODS)
 def test_toy_arm_tracks_line(method):
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), _xy(0.6, 1.0), duration=2.0)
+    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=2.0)
     result = plan(task, method)
     _check_response(task, result)
     assert result.fraction == 1.0 and result.trajectory.duration == pytest.approx(2.0)
@@ -164,7 +159,7 @@ def test_joint_stops_at_position_limit_and_never_passes_it():
 
 def test_velocity_limits_slow_the_dls_along_the_line():
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), _xy(-0.6, 1.0), duration=0.3)
+    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(-0.6, 1.0), duration=0.3)
     with pytest.raises(JointRateLimit):
         plan(task, "resolved_rate")
     result = plan(task, "resolved_rate_dls")
@@ -178,7 +173,7 @@ def test_velocity_limits_slow_the_dls_along_the_line():
 
 def test_goal_outside_workspace_fails_with_location():
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), _xy(1.5, 1.2), duration=2.0)
+    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(1.5, 1.2), duration=2.0)
     for method in METHODS:
         with pytest.raises(PlanningError) as info:
             plan(task, method)
@@ -191,7 +186,7 @@ def test_goal_outside_workspace_fails_with_location():
 
 def test_sampling_controls():
     robot = ToyPlanar2R()
-    base = CartesianTask(robot, np.array([0.3, 1.2]), _xy(0.6, 1.0), duration=1.0)
+    base = CartesianTask(robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=1.0)
     result = plan(dataclasses.replace(base, samples=7), "resolved_rate_dls")
     assert len(result.trajectory.times) == 7
     fine = plan(dataclasses.replace(base, sample_period=4e-4, control_period=2e-3), "resolved_rate")
@@ -206,7 +201,7 @@ def test_sampling_controls():
 
 def test_input_errors_and_bounds():
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), _xy(0.6, 1.0), duration=1.0)
+    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=1.0)
     with pytest.raises(InputError) as info:
         plan(dataclasses.replace(task, solver="no_such_solver"), "resolved_rate_dls")
     assert info.value.field == ("solver",)
@@ -232,7 +227,7 @@ def test_other_qp_solver_through_qpsolvers():
     if not others:
         pytest.skip("no QP solver besides OSQP is installed")
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), _xy(0.6, 1.0), duration=0.5, solver=others[0])
+    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=0.5, solver=others[0])
     result = plan(task, "resolved_rate_dls")
     reference = plan(dataclasses.replace(task, solver="osqp"), "resolved_rate_dls")
     assert result.diagnostics["solver"] == others[0]
@@ -249,7 +244,7 @@ def test_example_runs(registry):
 
 def test_singular_start_pinv_refuses_at_s0_dls_moves_off():
     robot = ToyPlanar2R()  # q = (0, 0): the arm fully stretched, rank 1
-    task = CartesianTask(robot, np.zeros(2), _xy(1.2, 0.3), duration=1.0, allow_partial=True)
+    task = CartesianTask(robot, np.zeros(2), xy(1.2, 0.3), duration=1.0, allow_partial=True)
     partial = plan(task, "resolved_rate")
     assert isinstance(partial.failure, Singularity) and partial.failure.s == 0.0
     assert partial.fraction == 0.0 and len(partial.trajectory.times) == 2

@@ -5,21 +5,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.cartesian.task import CartesianTask
 from core.cartesian.timing import nominal_path_speed, sample_path, time_path, timed_trajectory
 from core.cartesian.walk import MIN_SPEED_FRACTION
 from core.errors import JointRateLimit, Singularity
 from core.timing.quintic import QuinticTiming
 from core.timing.speed_limited import GridTiming
+from tests.core import conftest
+from tests.core.conftest import TOY_START
 from tests.toy_kinematics import ToyPlanar2R
 
 
 def toy_task(**kw):
-    robot = ToyPlanar2R()  # velocity limits 2 rad/s, accelerations 10 rad/s^2
-    q0 = np.array([0.2, 1.4])
-    T_goal = robot.fk(q0).copy()
-    T_goal[:2, 3] += [0.5, 0.0]  # a 0.5 m line
-    return CartesianTask(robot=robot, q_start=q0, T_goal=T_goal, **kw)
+    """The toy arm (velocity limits 2 rad/s, accelerations 10 rad/s^2) on a 0.5 m line along x."""
+    goal_xy = ToyPlanar2R().fk(TOY_START)[:2, 3] + [0.5, 0.0]
+    return conftest.toy_task(goal_xy=goal_xy, **kw)
 
 
 S = np.linspace(0.0, 1.0, 401)

@@ -31,10 +31,10 @@ from core.errors import (
     TooLarge,
     Unreachable,
 )
-from core.kinematics import IKResult
 from core.path.line import StraightLine
 from robots import registry
-from tests.toy_kinematics import ToyPlanar2R
+from tests.core.conftest import toy_task
+from tests.toy_kinematics import FlippingToy, ToyPlanar2R
 
 PUMA_Q2, PUMA_Q3 = math.pi / 4, -math.pi
 UR5_HOME = np.array([0.0, -math.pi / 3, math.pi / 2, -2 * math.pi / 3, -math.pi / 2, 0.0])
@@ -334,26 +334,6 @@ def test_check_grid_follows_the_tolerance():
     assert len(check_grid(fine, line)) == n + 1
     tiny = ur5_line(position_tolerance=1e-6)
     assert len(check_grid(tiny, line)) == walk_module.MAX_INTERVALS + 1
-
-
-class FlippingToy(ToyPlanar2R):
-    """The toy arm whose IK answers the other elbow branch past x = 1.1 m."""
-
-    def ik(self, T_base_tool, seed, **kw) -> IKResult:
-        r = super().ik(T_base_tool, seed, **kw)
-        if T_base_tool[0, 3] <= 1.1:
-            return r
-        q1, q2 = r.positions
-        other = np.array([q1 + 2 * math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), -q2])
-        return r._replace(positions=other)
-
-
-def toy_task(robot=None, **kw):
-    robot = robot or ToyPlanar2R()
-    q0 = np.array([0.2, 1.4])
-    T_goal = robot.fk(q0).copy()
-    T_goal[:2, 3] = [1.3, 0.5]
-    return CartesianTask(robot=robot, q_start=q0, T_goal=T_goal, **kw)
 
 
 def test_toy_arm_line_is_on_the_line():
