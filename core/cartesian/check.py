@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.measure import DeviationReport, measure_chunked, min_singular_values
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
@@ -15,18 +16,13 @@ from core.errors import (
 from core.kinematics import Kinematics
 from core.trajectory import Trajectory
 
-LIMIT_SLACK = 1e-9
-"""Relative slack on joint limits when a returned trajectory is checked (rounding only)."""
-
 
 def check_limits(robot: Kinematics, traj: Trajectory, s: np.ndarray | None = None) -> None:
     """Raise JointLimit / JointRateLimit when ``traj`` leaves the robot's position or speed limits.
 
     ``s`` (N,) gives the path parameter of each point, for the error's location.
     """
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    span = np.maximum(hi - lo, 1.0)
-    over = (traj.positions < lo - LIMIT_SLACK * span) | (traj.positions > hi + LIMIT_SLACK * span)
+    over = outside(traj.positions, robot.position_limits)
     if over.any():
         i, j = np.argwhere(over)[0]
         raise JointLimit(
@@ -35,8 +31,7 @@ def check_limits(robot: Kinematics, traj: Trajectory, s: np.ndarray | None = Non
             sample=int(i),
             s=None if s is None else float(s[i]),
         )
-    vmax = robot.velocity_limits * (1.0 + LIMIT_SLACK)
-    fast = np.abs(traj.velocities) > vmax
+    fast = over_speed(traj.velocities, robot.velocity_limits)
     if fast.any():
         i, j = np.argwhere(fast)[0]
         raise JointRateLimit(

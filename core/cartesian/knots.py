@@ -31,6 +31,7 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import reference_at, solve_on_line
+from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.knot_path import KnotPath, Knots
 from core.cartesian.measure import DEFAULT_CHECKS, dense_times, interval_excess, strict_deviation
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -134,7 +135,6 @@ def check_knot_path(
     """Split knot segments until the spline through the knots stays within ``MARGIN`` times the
     tolerances at ``checks`` interior points of every segment and inside the joint limits."""
     stats = TaylorStats() if stats is None else stats
-    lo, hi = kin.position_limits[:, 0], kin.position_limits[:, 1]
     for round_ in range(MAX_RESPLIT_ROUNDS + 1):
         deadline.check("bounded deviation: path check")
         path = KnotPath(knots)
@@ -144,7 +144,7 @@ def check_knot_path(
         bad = (
             (dev.position > MARGIN * position_tolerance)
             | (dev.orientation > MARGIN * orientation_tolerance)
-            | np.any((q < lo) | (q > hi), axis=1)
+            | ~inside(q, kin.position_limits)
         )
         if not bad.any():
             return knots
@@ -192,7 +192,6 @@ def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> T
     acceleration limits on a grid of ``_TIMING_GRID`` points plus the knots). The samples start at
     the first knot and end exactly at the last one, at rest."""
 
-    vmax = task.robot.velocity_limits * (1.0 + 1e-9)
     grid = np.union1d(np.linspace(0.0, 1.0, _TIMING_GRID), path.knots.s)
     for _ in range(_MAX_RETIMES):
         timing = time_path(task, line, grid, path(grid, 1), path(grid, 2))
@@ -202,7 +201,7 @@ def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> T
         traj = timed_trajectory(
             times, timing, positions, path(s, 1), path(s, 2), tuple(task.robot.joint_names)
         )
-        over = np.any(np.abs(traj.velocities) > vmax, axis=1)
+        over = over_speed(traj.velocities, task.robot.velocity_limits).any(axis=1)
         if not over.any():
             break
         # A returned point between grid points needs its own cap: add it to the grid, re-time.

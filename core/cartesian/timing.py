@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.cartesian.joint_limits import LIMIT_SLACK
 from core.cartesian.task import CartesianTask
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
 from core.path.line import StraightLine
@@ -45,7 +46,6 @@ ACCELERATION_SHARE = 0.5
 bounds dq/ds s''."""
 MAX_DURATION = 1e5
 """Longest timed line [s] (the API's bound on ``duration``)."""
-_SLACK = 1e-9
 _CAP_MARGIN = 1.0 - 1e-6
 """Caps are applied slightly tightened so rounding never lands a sample over a limit."""
 
@@ -176,7 +176,7 @@ def _fixed_duration(
     u = profile.phase(s)
     sdot = profile.end * 30.0 * u**2 * (1.0 - u) ** 2 / T
     ratio = np.abs(dq_ds) * sdot[:, None] / vmax
-    over = ratio > 1.0 + _SLACK
+    over = ratio > 1.0 + LIMIT_SLACK
     if over.any():
         i = int(np.argmax(over.any(axis=1)))
         j = int(np.argmax(ratio[i]))
@@ -195,8 +195,8 @@ def _fixed_duration(
     if d2 is not None:
         sddot = profile.end * 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / T**2
         acc = np.abs(d2 * (sdot**2)[:, None] + dq_ds * sddot[:, None]) / amax
-        if acc.max() > 1.0 + _SLACK:
-            i = int(np.argmax((acc > 1.0 + _SLACK).any(axis=1)))
+        if acc.max() > 1.0 + LIMIT_SLACK:
+            i = int(np.argmax((acc > 1.0 + LIMIT_SLACK).any(axis=1)))
             warnings.append(
                 f"joint accelerations reach {acc.max():.3g} times their limits (first at "
                 f"s={s[i]:.3f}); a duration of {T * np.sqrt(acc.max()):.4g} s would keep them"

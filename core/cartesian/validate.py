@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.cartesian.joint_limits import inside, worst_joint
 from core.cartesian.task import CartesianTask
 from core.errors import (
     InputError,
@@ -26,7 +27,6 @@ def validated_line(task: CartesianTask) -> StraightLine:
     ):
         if value is not None and not (np.isfinite(value) and value > 0.0):
             raise InputError(f"{'.'.join(where)} must be a finite number > 0", field=where)
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
     for name, q, s in (("start", task.q_start, 0.0), ("goal", task.q_goal, 1.0)):
         if q is None:
             continue
@@ -35,8 +35,8 @@ def validated_line(task: CartesianTask) -> StraightLine:
                 f"{name}.positions needs {robot.dof} finite values, one per joint",
                 field=(name, "positions"),
             )
-        if np.any(q < lo) or np.any(q > hi):
-            j = int(np.argmax(np.maximum(lo - q, q - hi)))
+        if not inside(q, robot.position_limits):
+            j = worst_joint(q, robot.position_limits)
             raise JointLimit(
                 f"{name}.positions puts joint {robot.joint_names[j]} outside its limits",
                 field=(name, "positions", j),

@@ -27,6 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core.cartesian.joint_limits import inside, worst_joint
 from core.cartesian.path_rates import PathRates, path_rates
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
@@ -67,7 +68,6 @@ GOAL_SNAP = 1e-5
 """End configuration within this of ``q_goal`` [rad] is replaced by ``q_goal`` (same solution)."""
 GOAL_BRANCH_WARNING = 1e-3
 """End configuration farther than this from ``q_goal`` [rad]: a warning."""
-LIMIT_SLACK = 1e-9
 _EXACT = 10.0 * IK_SOLVE_TOLERANCE
 """An IK residual above this (yet within IK_TOLERANCE) means IK could not converge fully."""
 
@@ -147,10 +147,7 @@ class Walker:
         return np.asarray(r.positions, dtype=float), bool(residual <= IK_TOLERANCE), residual
 
     def inside(self, q: np.ndarray) -> bool:
-        span = np.maximum(self.hi - self.lo, 1.0)
-        return bool(
-            np.all(q >= self.lo - LIMIT_SLACK * span) and np.all(q <= self.hi + LIMIT_SLACK * span)
-        )
+        return bool(inside(q, self.robot.position_limits))
 
     def unwrap(self, q: np.ndarray, ref: np.ndarray, T: np.ndarray) -> np.ndarray:
         """``q`` with whole turns removed toward ``ref`` where that keeps the limits and the pose."""
@@ -203,7 +200,7 @@ class Walker:
                 q = self.unwrap(q, pred, T)
                 if self.on_branch(q, seed):
                     if not self.inside(q):
-                        j = int(np.argmax(np.maximum(self.lo - q, q - self.hi)))
+                        j = worst_joint(q, self.robot.position_limits)
                         return JointLimit(
                             f"joint {names[j]} leaves its position limits at s={s:.4f}",
                             s=s,
@@ -214,7 +211,7 @@ class Walker:
         if reached is not None:
             q, pred, step = reached
             if not self.inside(pred):
-                j = int(np.argmax(np.maximum(self.lo - pred, pred - self.hi)))
+                j = worst_joint(pred, self.robot.position_limits)
                 return JointLimit(
                     f"joint {names[j]} would leave its position limits at s={s:.4f} on the branch "
                     "the arm is on (IK finds only another branch)",

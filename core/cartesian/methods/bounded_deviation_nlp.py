@@ -25,6 +25,7 @@ from typing import Any, cast
 import numpy as np
 
 from core.cartesian.ik_on_path import goal_configuration
+from core.cartesian.joint_limits import inside
 from core.cartesian.knot_nlp import (
     ACCEPT,
     COSTS,
@@ -255,9 +256,8 @@ class _KnotSearch:
             kin, self.line, path, s, task.position_tolerance, task.orientation_tolerance
         )
         q = path(s)
-        lo, hi = kin.position_limits[:, 0], kin.position_limits[:, 1]
         return bool(
             dev.position.max() <= ACCEPT * task.position_tolerance
             and dev.orientation.max() <= ACCEPT * task.orientation_tolerance
-            and np.all((q >= lo) & (q <= hi))
+            and bool(inside(q, kin.position_limits).all())
         )

@@ -14,6 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from core.cartesian.check import finish
+from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.cartesian.timing import sample_path, time_path, timed_trajectory
@@ -24,7 +25,6 @@ from core.cartesian.walk import (
     GOAL_BRANCH_WARNING,
     GOAL_SNAP,
     IK_SOLVE_TOLERANCE,
-    LIMIT_SLACK,
     MIN_STEP,
     SINGULAR_VALUE_THRESHOLD,
     TWO_PI,
@@ -155,9 +155,7 @@ def _batch_chunk(
             break
     turns = np.round((q - q0 - step) / TWO_PI).any(axis=1)
     off = np.abs(q - q0 - step).max(axis=1) > BRANCH_RATIO * np.abs(step).max(axis=1) + BRANCH_ABS
-    span = np.maximum(w.hi - w.lo, 1.0)
-    inside = np.all((q >= w.lo - LIMIT_SLACK * span) & (q <= w.hi + LIMIT_SLACK * span), axis=1)
-    ok = converged & ~turns & ~off & inside
+    ok = converged & ~turns & ~off & inside(q, w.robot.position_limits)
     out[todo[ok]] = q[ok]
     taken[todo[ok]] = True
 
@@ -204,7 +202,7 @@ def _timed_result(
                 s=float(s[i]),
             )
         traj = timed_trajectory(times, timing, q, rates.dq_ds, rates.d2q_ds2, robot.joint_names)
-        over = (np.abs(traj.velocities) > robot.velocity_limits * (1.0 + 1e-9)).any(axis=1)
+        over = over_speed(traj.velocities, robot.velocity_limits).any(axis=1)
         if not over.any():
             break
         # A returned point between grid points needs a lower cap: add it to the grid and re-time.

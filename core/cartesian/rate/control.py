@@ -49,6 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
     SINGULAR_REGION,
@@ -95,8 +96,6 @@ ACTIVE_TOLERANCE = 1e-6
 TIME_SCALE_MARGIN = 0.95
 """The path clock slows so the feedforward rates use at most this share of the velocity limits,
 leaving the rest to the feedback term."""
-RATE_SLACK = 1e-9
-"""Relative slack on velocity limits for ``resolved_rate`` (rounding only)."""
 _CHECK_EVERY = 256
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
@@ -301,7 +300,7 @@ def _pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
         detail = f"the Jacobian is singular (smallest singular value {sigma:.2e}) at s={s:.4f}"
         return Singularity(detail, s=s, extra={"min_singular_value": sigma}), None
     qd = Vt.T @ ((U.T @ V) / S)
-    fast = np.flatnonzero(np.abs(qd) > vmax * (1.0 + RATE_SLACK))
+    fast = np.flatnonzero(over_speed(qd, vmax))
     if fast.size:
         j = int(fast[np.argmax(np.abs(qd[fast]) / vmax[fast])])
         detail = (
@@ -310,7 +309,7 @@ def _pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
         )
         return JointRateLimit(detail, joint=j, s=s, extra={"rate": float(abs(qd[j]))}), None
     q_next = q + qd * dt
-    out = np.flatnonzero((q_next < limits.position[:, 0]) | (q_next > limits.position[:, 1]))
+    out = np.flatnonzero(outside(q_next, limits.position))
     if out.size:
         j = int(out[0])
         detail = f"joint {robot.joint_names[j]} reaches its limit at s={s:.4f}"
