@@ -1,6 +1,8 @@
-"""Branch-following IK along the line for the knot methods: one point on the start's branch
-(``solve_on_line``), the continuation along the whole line (``continuation``), and the goal's
-configuration on the start's branch (``goal_configuration``).
+"""Branch-following IK along the line: the one IK call (``solve_ik``), tolerance and branch test
+(``follows``, ``same_branch``) of every Cartesian method, and the knot methods' point on the start's
+branch (``solve_on_line``), continuation along the whole line (``continuation``) and goal
+configuration on the start's branch (``goal_configuration``). The ``sampled`` walk
+(``core.cartesian.walk``) and its batched solve use the same call, tolerance and test.
 """
 
 from __future__ import annotations
@@ -15,18 +17,20 @@ from core.errors import (
     Unreachable,
 )
 from core.geometry import so3
-from core.kinematics import Kinematics, task_rows
+from core.kinematics import IKResult, Kinematics, task_rows
 from core.path.line import StraightLine
 
-BRANCH_FACTOR = 3.0
-"""A knot IK solution may be at most this many times farther (max-abs, per joint) from its seed than
-the Jacobian's least-squares step predicts, plus ``BRANCH_SLACK``; farther is another branch."""
-BRANCH_SLACK = 0.05
-"""[rad or m] absolute slack of the branch test."""
 IK_TOLERANCE = 1e-6
-"""Largest IK residual [m] and [rad] of a knot accepted as on the line."""
-
-
+"""Largest IK residual [m] and [rad] of a point accepted as on the line (every method)."""
+IK_SOLVE_TOLERANCE = 1e-9
+"""Residual the IK is asked for (one more Newton step than ``IK_TOLERANCE`` from a good seed)."""
+STRICT_BRANCH = (0.5, 1e-3)
+"""A short step is on the branch when its solution is within ``0.5 max |step| + 1e-3`` [rad]
+(max-abs) of where the Jacobian predicts, ``q0 + step`` (the walk, the continuation, the batched
+solve of ``sampled``)."""
+LOOSE_BRANCH = (3.0, 0.05)
+"""A knot solved far from its seed is on the branch when it moved at most ``3 max |step| + 0.05``
+[rad] (max-abs) from the seed, ``step`` the Jacobian's least-squares prediction (Taylor's knots)."""
 GOAL_BRANCH_TOLERANCE = 0.1
 """[rad] a requested goal configuration is used when it is this close (max-abs) to the one reached by
 IK continuation along the line from the start, i.e. on the same branch."""
@@ -37,9 +41,6 @@ CONTINUATION_JOINT_STEP = 0.1
 """Largest predicted joint step [rad] of one continuation step."""
 MIN_CONTINUATION_STEP = 1e-5
 """Shortest continuation step [share of s]; a failure there is the line's failure."""
-STRICT_BRANCH = (0.5, 1e-3)
-"""Continuation steps: the IK solution must be within ``0.5 |predicted step| + 1e-3`` [rad]
-(max-abs) of where the Jacobian predicts (the test of the ``sampled`` method)."""
 
 
 def task_error(task_space: str, T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
@@ -62,9 +63,39 @@ def predicted_step(kin: Kinematics, q: np.ndarray, T_target: np.ndarray) -> np.n
     return step
 
 
+def solve_ik(kin: Kinematics, T: np.ndarray, start: np.ndarray) -> IKResult:
+    """IK at the pose ``T`` (4, 4) from ``start`` (dof,), asked for ``IK_SOLVE_TOLERANCE``; the
+    iterates may leave the joint limits, so a solution reachable only outside them is told apart
+    (``within_limits``) from no solution at all, and no redundant arm is slid along a limit off the
+    path its rates describe."""
+    return kin.ik(
+        T,
+        start,
+        position_tolerance=IK_SOLVE_TOLERANCE,
+        orientation_tolerance=IK_SOLVE_TOLERANCE,
+        respect_limits=False,
+    )
+
+
+def residual(result: IKResult) -> float:
+    """The larger of an IK result's position [m] and orientation [rad] residuals."""
+    return max(result.position_error, result.orientation_error)
+
+
+def follows(
+    q: np.ndarray, q0: np.ndarray, step: np.ndarray, branch: tuple[float, float] = STRICT_BRANCH
+) -> bool | np.ndarray:
+    """Whether ``q`` continues the branch from ``q0`` when the Jacobian predicts ``step``: max-abs
+    distance to ``q0 + step`` within ``branch[0] max |step| + branch[1]`` [rad]. Arrays ``(..., dof)``
+    give one answer per leading index."""
+    off = np.abs(q - q0 - step).max(axis=-1)
+    return off <= branch[0] * np.abs(step).max(axis=-1) + branch[1]
+
+
 def same_branch(step: np.ndarray, predicted: np.ndarray) -> bool:
-    """Whether a joint ``step`` (dof,) is within what the Jacobian's ``predicted`` step allows."""
-    limit = BRANCH_FACTOR * float(np.max(np.abs(predicted))) + BRANCH_SLACK
+    """Whether a joint ``step`` (dof,) is within what the Jacobian's ``predicted`` step allows
+    (``LOOSE_BRANCH``: a knot solved far from its seed)."""
+    limit = LOOSE_BRANCH[0] * float(np.max(np.abs(predicted))) + LOOSE_BRANCH[1]
     return float(np.max(np.abs(step))) <= limit
 
 
@@ -98,20 +129,15 @@ def solve_on_line(
     # IK roams outside the limits, so a solution reachable only outside them is told apart
     # (joint_limit) from no solution at all (unreachable).
     for start in starts:
-        res = kin.ik(
-            T, start, position_tolerance=1e-9, orientation_tolerance=1e-9, respect_limits=False
-        )
-        converged = res.position_error <= IK_TOLERANCE and res.orientation_error <= IK_TOLERANCE
-        if not converged:
+        res = solve_ik(kin, T, start)
+        if residual(res) > IK_TOLERANCE:
             continue
         if not res.within_limits:
             outcome = "joint_limit" if outcome == "unreachable" else outcome
             continue
         q = np.asarray(res.positions, dtype=float)
         if strict:
-            predicted = anchors[0][1]
-            off = float(np.max(np.abs(q - seed - predicted)))
-            if off <= STRICT_BRANCH[0] * float(np.max(np.abs(predicted))) + STRICT_BRANCH[1]:
+            if follows(q, seed, anchors[0][1]):
                 return q
         elif any(same_branch(q - anchor, predicted) for anchor, predicted in anchors):
             return q

@@ -9,8 +9,8 @@ twist per unit s), so the arm stays on one branch. A step that misbehaves is hal
 - ``unreachable`` (Type I): no IK solution within ``IK_TOLERANCE`` (1e-6 m and rad);
 - ``joint_limit``: the solution on the branch being followed leaves the joint limits (IK runs
   without clipping to the limits, so a redundant arm is not slid along a limit off its path);
-- ``branch_flip``: a joint step larger than ``BRANCH_RATIO`` times the predicted step plus
-  ``BRANCH_ABS`` even for the smallest step (IK on another branch, never accepted silently);
+- ``branch_flip``: a joint step off the Jacobian's prediction by more than ``STRICT_BRANCH``
+  (``core.cartesian.ik_on_path.follows``) even for the smallest step (IK on another branch);
 - ``singularity`` (Type II): the smallest singular value of the task Jacobian is below
   ``SINGULAR_VALUE_THRESHOLD``, or joint rates need a slow-down below
   ``core.cartesian.timing.MIN_SPEED_FRACTION`` of the requested speed.
@@ -27,6 +27,14 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core.cartesian.ik_on_path import (
+    IK_SOLVE_TOLERANCE,
+    IK_TOLERANCE,
+    STRICT_BRANCH,
+    follows,
+    residual,
+    solve_ik,
+)
 from core.cartesian.joint_limits import inside, worst_joint
 from core.cartesian.path_rates import PathRates, path_rates
 from core.cartesian.task import CartesianTask
@@ -45,10 +53,6 @@ SINGULAR_VALUE_THRESHOLD = 1e-3
 """Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a point is
 singular. At 1e-3 a joint turning at 1 rad/s moves the tool by at most 1 mm/s in the weakest
 direction: following the line there needs joint rates ~100 times any arm's limits."""
-IK_TOLERANCE = 1e-6
-"""Largest IK residual [m] and [rad] of a point accepted as on the line."""
-IK_SOLVE_TOLERANCE = 1e-9
-"""Residual the IK is asked for (one more Newton step than 1e-6 from a good seed)."""
 STEP_PER_TOLERANCE = 10.0
 """Walk step: this many position tolerances [m] of travel, or orientation tolerances [rad]."""
 MIN_INTERVALS = 50
@@ -57,9 +61,6 @@ MIN_STEP = 1e-5
 """Smallest step in s when a step is halved: where a failure is located."""
 MAX_JOINT_STEP = 0.1
 """Largest joint step [rad] the walk predicts in one step; where joints move fast it steps shorter."""
-BRANCH_RATIO = 0.5
-BRANCH_ABS = 1e-3
-"""A step is on the branch when max |q - q_predicted| <= BRANCH_RATIO max |dq_predicted| + BRANCH_ABS [rad]."""
 EDGE_PROBE = 1e-3
 """How far past a singular point [in s] IK is tried to tell the workspace's edge (Type I)."""
 EDGE_SEED_OFFSET = 0.1
@@ -136,15 +137,9 @@ class Walker:
     def ik(self, T: np.ndarray, seed: np.ndarray) -> tuple[np.ndarray, bool, float]:
         """(positions, on the line, residual [m or rad])."""
         self.ik_calls += 1
-        r = self.robot.ik(
-            T,
-            seed,
-            position_tolerance=IK_SOLVE_TOLERANCE,
-            orientation_tolerance=IK_SOLVE_TOLERANCE,
-            respect_limits=False,
-        )
-        residual = max(r.position_error, r.orientation_error)
-        return np.asarray(r.positions, dtype=float), bool(residual <= IK_TOLERANCE), residual
+        r = solve_ik(self.robot, T, seed)
+        res = residual(r)
+        return np.asarray(r.positions, dtype=float), bool(res <= IK_TOLERANCE), res
 
     def inside(self, q: np.ndarray) -> bool:
         return bool(inside(q, self.robot.position_limits))
@@ -171,18 +166,19 @@ class Walker:
         return bool(sigma >= SINGULAR_VALUE_THRESHOLD)
 
     def on_branch(self, q: np.ndarray, seed: Seed) -> bool:
-        """Whether ``q`` continues the branch from ``seed``: within ``BRANCH_RATIO`` of the
-        Jacobian's prediction (plus ``BRANCH_ABS``); or, for a step of at most 2 ``MIN_STEP``,
+        """Whether ``q`` continues the branch from ``seed``: within ``STRICT_BRANCH`` of the
+        Jacobian's prediction (plus its slack); or, for a step of at most 2 ``MIN_STEP``,
         within what the larger of the rates at both ends allows (the mean-value bound, which holds
         where the rates grow fast, next to a fold of the workspace or a singularity)."""
         step = seed.dq * seed.h
-        if np.abs(q - seed.q - step).max() <= BRANCH_RATIO * np.abs(step).max() + BRANCH_ABS:
+        if follows(q, seed.q, step):
             return True
         if abs(seed.h) > 2.0 * MIN_STEP:
             return False
         rates = path_rates(self.robot, self.line, q[None], second_order=False)
-        bound = (1.0 + BRANCH_RATIO) * np.maximum(np.abs(step), np.abs(rates.dq_ds[0] * seed.h))
-        return bool(np.all(np.abs(q - seed.q) <= bound + BRANCH_ABS))
+        ratio, slack = STRICT_BRANCH
+        bound = (1.0 + ratio) * np.maximum(np.abs(step), np.abs(rates.dq_ds[0] * seed.h))
+        return bool(np.all(np.abs(q - seed.q) <= bound + slack))
 
     def solve(self, s: float, T: np.ndarray, seeds: list[Seed]) -> np.ndarray | PlanningError:
         """IK at ``T`` (path parameter ``s``) on the branch of the seeds (solved points nearby)."""

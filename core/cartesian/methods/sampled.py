@@ -14,17 +14,15 @@ from dataclasses import replace
 import numpy as np
 
 from core.cartesian.check import finish
+from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows
 from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.cartesian.timing import sample_path, time_path, timed_trajectory
 from core.cartesian.validate import validated_line
 from core.cartesian.walk import (
-    BRANCH_ABS,
-    BRANCH_RATIO,
     GOAL_BRANCH_WARNING,
     GOAL_SNAP,
-    IK_SOLVE_TOLERANCE,
     MIN_STEP,
     SINGULAR_VALUE_THRESHOLD,
     TWO_PI,
@@ -96,7 +94,7 @@ def _batch_solve(
     over the points (``fk_jacobian_many``), each from the start the one-point path tries first
     (its walk point before it, stepped by the rates there). A point is taken, into ``out``, only
     when it passes that path's tests of its first attempt: residual within ``IK_SOLVE_TOLERANCE``,
-    no whole turns to remove, on the branch (``BRANCH_RATIO``), inside the limits. Returns which
+    no whole turns to remove, on the branch (``follows``), inside the limits. Returns which
     points were taken; the others (and every point when the task space is not
     ``pose``) go through the one-point path, with its fallbacks and its errors."""
     robot = w.robot
@@ -154,7 +152,7 @@ def _batch_chunk(
         except np.linalg.LinAlgError:  # a numerically singular point: all go the one-point way
             break
     turns = np.round((q - q0 - step) / TWO_PI).any(axis=1)
-    off = np.abs(q - q0 - step).max(axis=1) > BRANCH_RATIO * np.abs(step).max(axis=1) + BRANCH_ABS
+    off = ~follows(q, q0, step)
     ok = converged & ~turns & ~off & inside(q, w.robot.position_limits)
     out[todo[ok]] = q[ok]
     taken[todo[ok]] = True
