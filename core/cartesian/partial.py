@@ -1,4 +1,11 @@
-"""Partial plans: a located failure becomes the plan of the reachable prefix (``allow_partial``)."""
+"""Partial plans (``allow_partial``): a located failure becomes the plan of the reachable prefix.
+
+One set of rules for every method: which failures a prefix can stop before (``PARTIAL_ERRORS``: a
+failure located at ``s``), how many times a prefix is retried (``PARTIAL_TRIES``), and what the
+result says (``partial_warning`` first among the warnings, ``fraction`` < 1, ``failure`` set). How
+the prefix is found is the method's: the knot methods re-plan the line cut short
+(``plan_partial``), ``sampled`` cuts its walk, the rate controllers keep the ticks before the failure.
+"""
 
 from __future__ import annotations
 
@@ -9,13 +16,22 @@ from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
     BranchFlip,
     JointLimit,
+    PlanningError,
     Singularity,
     Unreachable,
 )
 
+PARTIAL_ERRORS = (Unreachable, JointLimit, BranchFlip, Singularity)
+"""Failures at a path parameter ``s`` that a partial plan stops before."""
 MIN_FRACTION = 1e-3
-"""Shortest prefix [share of s] a partial plan may return."""
-_PARTIAL_TRIES = 3
+"""Shortest prefix [share of s] a re-planned partial plan may return."""
+PARTIAL_TRIES = 3
+"""Prefixes tried before the first failure is raised after all."""
+
+
+def partial_warning(fraction: float, failure: PlanningError) -> str:
+    """The first warning of a partial plan: how much of the line it covers and why it stops."""
+    return f"planned {fraction:.1%} of the line: {failure.detail}"
 
 
 def plan_partial(
@@ -27,13 +43,13 @@ def plan_partial(
     knots' ``s`` on the whole line."""
     try:
         return plan(task)
-    except (Unreachable, JointLimit, BranchFlip, Singularity) as err:
+    except PARTIAL_ERRORS as err:
         if not task.allow_partial or err.s is None or err.field is not None:
             raise
         failure = err
     line = task.line()
     fail_at, reached = float(failure.s), failure.extra.get("s_reached")
-    for _ in range(_PARTIAL_TRIES):
+    for _ in range(PARTIAL_TRIES):
         end = float(reached) if reached is not None else 0.95 * fail_at
         if end < MIN_FRACTION:
             raise failure
@@ -41,7 +57,7 @@ def plan_partial(
         try:
             result = plan(prefix)
             break
-        except (Unreachable, JointLimit, BranchFlip, Singularity) as err:
+        except PARTIAL_ERRORS as err:
             if err.s is None:
                 raise
             # The prefix's own s runs over [0, 1]: on the whole line it is end * s.
@@ -54,6 +70,6 @@ def plan_partial(
         result,
         fraction=end,
         failure=failure,
-        warnings=(f"planned {end:.1%} of the line: {failure.detail}", *result.warnings),
+        warnings=(partial_warning(end, failure), *result.warnings),
         knots=knots,
     )

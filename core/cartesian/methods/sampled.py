@@ -16,6 +16,7 @@ import numpy as np
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows
 from core.cartesian.joint_limits import inside, over_speed
+from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.cartesian.timing import sample_path, time_path, timed_trajectory
@@ -32,11 +33,8 @@ from core.cartesian.walk import (
     walk_line,
 )
 from core.errors import (
-    BranchFlip,
-    JointLimit,
     PlanningError,
     Singularity,
-    Unreachable,
 )
 from core.geometry import so3
 from core.path.line import StraightLine
@@ -168,10 +166,10 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
             raise failure
         try:
             return _timed_result(task, line, walk, failure)
-        except (Unreachable, JointLimit, BranchFlip, Singularity) as err:
+        except PARTIAL_ERRORS as err:
             # A returned point between walked points failed: with allow_partial, stop before it.
             attempts += 1
-            if not task.allow_partial or err.s is None or attempts >= 3:
+            if not task.allow_partial or err.s is None or attempts >= PARTIAL_TRIES:
                 raise
             walk, failure = walk.before(err.s), err
 
@@ -217,7 +215,7 @@ def _timed_result(
             "between the points the timing was computed at"
         )
     if failure is not None:
-        warnings.insert(0, f"planned {walk.end:.1%} of the line: {failure.detail}")
+        warnings.insert(0, partial_warning(walk.end, failure))
     elif task.q_goal is not None:
         gap = float(np.abs(traj.positions[-1] - task.q_goal).max())
         if gap <= GOAL_SNAP:

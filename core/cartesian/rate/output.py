@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from core.cartesian.check import finish
+from core.cartesian.partial import partial_warning
 from core.cartesian.rate.control import GOAL_FRACTION, RateRun
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -194,7 +195,7 @@ def _warnings(task: CartesianTask, run: RateRun, result: CartesianResult) -> lis
             f"{task.orientation_tolerance:g} rad), largest near s={diag['max_deviation_s']:.3f}"
         )
     if run.failure is not None:
-        out.append(f"partial plan to s={result.fraction:.4f}: {run.failure.detail}")
+        out.insert(0, partial_warning(result.fraction, run.failure))
     peak = result.trajectory.peak_acceleration
     limit = np.asarray(task.robot.acceleration_limits)
     if np.any(peak > limit):
