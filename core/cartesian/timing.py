@@ -173,8 +173,8 @@ def _fixed_duration(
 ) -> PathTiming:
     vmax, amax = task.robot.velocity_limits, task.robot.acceleration_limits
     profile = QuinticTiming(T, float(s[-1]))
-    u = profile.phase(s)
-    sdot = profile.end * 30.0 * u**2 * (1.0 - u) ** 2 / T
+    t = profile.time_at(s)
+    sdot = profile(t, 1)
     ratio = np.abs(dq_ds) * sdot[:, None] / vmax
     over = ratio > 1.0 + LIMIT_SLACK
     if over.any():
@@ -193,7 +193,7 @@ def _fixed_duration(
         )
     warnings = []
     if d2 is not None:
-        sddot = profile.end * 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / T**2
+        sddot = profile(t, 2)
         acc = np.abs(d2 * (sdot**2)[:, None] + dq_ds * sddot[:, None]) / amax
         if acc.max() > 1.0 + LIMIT_SLACK:
             i = int(np.argmax((acc > 1.0 + LIMIT_SLACK).any(axis=1)))
