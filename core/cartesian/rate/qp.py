@@ -47,6 +47,7 @@ import scipy.sparse as sp
 from scipy.optimize import lsq_linear
 
 from core.errors import InputError, NoConvergence
+from core.kinematics import Kinematics
 
 SINGULAR_REGION = 0.05
 """epsilon: damping starts when the smallest singular value of the task Jacobian falls below it."""
@@ -112,11 +113,11 @@ class RateLimits(NamedTuple):
     velocity: np.ndarray
 
     @classmethod
-    def of(cls, robot: object) -> RateLimits:
-        """The limits of anything with ``position_limits`` and ``velocity_limits`` (a robot)."""
+    def of(cls, robot: Kinematics) -> RateLimits:
+        """The position and velocity limits of ``robot``."""
         return cls(
-            np.asarray(robot.position_limits, dtype=float),  # type: ignore[attr-defined]
-            np.asarray(robot.velocity_limits, dtype=float),  # type: ignore[attr-defined]
+            np.asarray(robot.position_limits, dtype=float),
+            np.asarray(robot.velocity_limits, dtype=float),
         )
 
 
