@@ -11,6 +11,7 @@ plotting) and the top-level ``knots`` of the bounded-deviation methods.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import Any
@@ -25,6 +26,16 @@ from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
 from service.schemas.cartesian import CartesianTaskSpec
+
+_SAME_NAMED = tuple(
+    sorted(
+        {f.name for f in dataclasses.fields(CartesianTask)}
+        & set(CartesianTaskSpec.model_fields)
+        - {"robot"}  # the request names it; the task holds the resolved model
+    )
+)
+"""Request fields passed to ``CartesianTask`` as they are (same name, same units): the timing,
+sampling, control and partial-plan options. A field added to both is passed on with no edit here."""
 
 PROFILE_POINTS = 256
 """Most points of each plotting profile in the diagnostics."""
@@ -79,6 +90,7 @@ def task_from_spec(
         raise TooLarge(
             f"samples={spec.samples} exceeds the limit of {max_points} points", field=("samples",)
         )
+    same_named = {name: getattr(spec, name) for name in _SAME_NAMED}
     return CartesianTask(
         robot=robot,
         q_start=q_start,
@@ -86,15 +98,8 @@ def task_from_spec(
         q_goal=q_goal,
         position_tolerance=spec.tolerance.position,
         orientation_tolerance=spec.tolerance.orientation,
-        duration=spec.duration,
-        max_linear_speed=spec.max_linear_speed,
-        max_angular_speed=spec.max_angular_speed,
-        sample_period=spec.sample_period,
-        samples=spec.samples,
-        control_period=spec.control_period,
-        allow_partial=spec.allow_partial,
-        solver=spec.solver,
         deadline=deadline,
+        **same_named,
     )
 
 
