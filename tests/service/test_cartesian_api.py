@@ -41,12 +41,6 @@ HOLE_LINE = {
 S_HOLE = (0.8 - math.sqrt(0.2**2 - 0.05**2)) / 1.6
 
 
-@pytest.fixture(scope="module")
-def client():
-    with TestClient(create_app(Settings())) as c:
-        yield c
-
-
 def problem(response, status: int, code: str) -> dict:
     assert response.status_code == status, response.text
     assert response.headers["content-type"].startswith("application/problem+json")

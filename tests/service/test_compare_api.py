@@ -9,11 +9,7 @@ from fastapi.testclient import TestClient
 from core.cartesian.methods import METHODS
 from robots import registry
 from service.app import create_app
-
-
-@pytest.fixture(scope="module")
-def client():
-    return TestClient(create_app())
+from tests.service.conftest import pose_body
 
 
 def _ur5_task(**extra):
@@ -21,13 +17,10 @@ def _ur5_task(**extra):
     q0 = ur5.home
     T = ur5.fk(q0)
     T[:3, 3] += [0.05, 0.05, -0.03]
-    from core.geometry.so3 import matrix_to_pose
-
-    position, orientation = matrix_to_pose(T)
     task = {
         "robot": "ur5",
         "start": {"positions": q0.tolist()},
-        "goal": {"pose": {"position": list(position), "orientation": list(orientation)}},
+        "goal": {"pose": pose_body(T)},
         "duration": 1.0,
     }
     task.update(extra)
