@@ -29,9 +29,10 @@ import numpy as np
 from scipy.optimize import lsq_linear
 from scipy.spatial.transform import Rotation
 
-from core.cartesian.rate.control import REDUNDANCY_DAMPING, simulate
+from core.cartesian.rate.control import simulate
 from core.cartesian.rate.qp import (
     OSQP_SETTINGS,
+    REDUNDANCY_DAMPING,
     DlsQpSolver,
     RateLimits,
     build_dls_qp,

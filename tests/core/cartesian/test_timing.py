@@ -5,8 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.cartesian.timing import nominal_path_speed, sample_path, time_path, timed_trajectory
-from core.cartesian.walk import MIN_SPEED_FRACTION
+from core.cartesian.timing import (
+    MIN_SPEED_FRACTION,
+    nominal_path_speed,
+    sample_path,
+    time_path,
+    timed_trajectory,
+)
 from core.errors import JointRateLimit, Singularity
 from core.timing.quintic import QuinticTiming
 from core.timing.speed_limited import GridTiming

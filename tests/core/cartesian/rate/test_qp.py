@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from core.cartesian.rate.control import REDUNDANCY_DAMPING, SINGULAR_REGION
 from core.cartesian.rate.qp import (
     MAX_DAMPING,
+    REDUNDANCY_DAMPING,
+    SINGULAR_REGION,
     DlsQpSolver,
     RateLimits,
     bounded_least_squares,
