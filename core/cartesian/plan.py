@@ -1,4 +1,4 @@
-"""Plan a Cartesian task: validate -> ``METHODS[method]`` -> check -> finish.
+"""Plan a Cartesian task: validate -> ``METHODS[method]`` -> check -> finish -> enforce.
 
 ``plan`` is the one entry point the service calls. Every method validates its own entry (it may be
 called directly), returns a ``CartesianResult`` and, when it did not ``finish`` it (limits, dense
@@ -7,7 +7,7 @@ deviation, singular values), ``plan`` finishes it here, so no trajectory leaves 
 
 from __future__ import annotations
 
-from core.cartesian.check import finish
+from core.cartesian.check import enforce, finish
 from core.cartesian.methods import METHODS
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import InputError
@@ -23,4 +23,6 @@ def plan(task: CartesianTask, method: str) -> CartesianResult:
             extra={"methods": list(METHODS)},
         )
     result = planner(task)
-    return result if result.deviation is not None else finish(task, result)
+    if result.deviation is None:
+        result = finish(task, result)
+    return enforce(task, result)

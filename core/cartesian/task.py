@@ -42,6 +42,8 @@ class CartesianTask:
         samples: Number of returned points, or None.
         control_period: Control tick [s] of the rate methods.
         allow_partial: Return the planned prefix (fraction < 1) instead of failing.
+        allow_violations: Return a plan that leaves the tolerance between its returned points or
+            exceeds a joint acceleration limit (with warnings) instead of failing.
         solver: QP solver name for ``resolved_rate_dls``.
         deadline: Wall-time budget.
     """
@@ -59,6 +61,7 @@ class CartesianTask:
     samples: int | None = None
     control_period: float = 1e-3
     allow_partial: bool = False
+    allow_violations: bool = False
     solver: str = "osqp"
     deadline: Deadline = NO_DEADLINE
 

@@ -172,16 +172,22 @@ def _fixed_duration(
     task: CartesianTask, T: float, s: np.ndarray, dq_ds: np.ndarray, d2: np.ndarray | None
 ) -> PathTiming:
     vmax, amax = task.robot.velocity_limits, task.robot.acceleration_limits
+    names = task.robot.joint_names
     profile = QuinticTiming(T, float(s[-1]))
     t = profile.time_at(s)
     sdot = profile(t, 1)
     ratio = np.abs(dq_ds) * sdot[:, None] / vmax
+    acc = np.zeros_like(ratio)
+    if d2 is not None:
+        sddot = profile(t, 2)
+        acc = np.abs(d2 * (sdot**2)[:, None] + dq_ds * sddot[:, None]) / amax
+    # Speeds scale with 1/T, accelerations with 1/T^2: the shortest duration that keeps both.
+    enforced_acc = 0.0 if task.allow_violations else float(acc.max())
+    min_duration = T * max(float(ratio.max()), float(np.sqrt(enforced_acc)))
     over = ratio > 1.0 + LIMIT_SLACK
     if over.any():
         i = int(np.argmax(over.any(axis=1)))
         j = int(np.argmax(ratio[i]))
-        names = task.robot.joint_names
-        min_duration = T * float(ratio.max())
         raise JointRateLimit(
             f"with duration={T:g} s joint {names[j]} would move at {ratio[i, j] * vmax[j]:.4g} "
             f"(limit {vmax[j]:.4g}) at s={s[i]:.4f}; this line needs at least "
@@ -192,15 +198,25 @@ def _fixed_duration(
             extra={"min_duration": min_duration},
         )
     warnings = []
-    if d2 is not None:
-        sddot = profile(t, 2)
-        acc = np.abs(d2 * (sdot**2)[:, None] + dq_ds * sddot[:, None]) / amax
-        if acc.max() > 1.0 + LIMIT_SLACK:
-            i = int(np.argmax((acc > 1.0 + LIMIT_SLACK).any(axis=1)))
-            warnings.append(
-                f"joint accelerations reach {acc.max():.3g} times their limits (first at "
-                f"s={s[i]:.3f}); a duration of {T * np.sqrt(acc.max()):.4g} s would keep them"
+    fast = acc > 1.0 + LIMIT_SLACK
+    if fast.any():
+        i = int(np.argmax(fast.any(axis=1)))
+        j = int(np.argmax(acc[i]))
+        if not task.allow_violations:
+            raise JointRateLimit(
+                f"with duration={T:g} s joint {names[j]} would accelerate at "
+                f"{acc[i, j]:.3g} times its limit at s={s[i]:.4f}; this line needs at least "
+                f"{min_duration:.4g} s, or give speed limits instead of a duration (or set "
+                "allow_violations to accept it)",
+                field=("duration",),
+                s=float(s[i]),
+                joint=j,
+                extra={"min_duration": min_duration, "limit": "acceleration"},
             )
+        warnings.append(
+            f"joint accelerations reach {acc.max():.3g} times their limits (first at "
+            f"s={s[i]:.3f}); a duration of {T * np.sqrt(acc.max()):.4g} s would keep them"
+        )
     return PathTiming(profile, float(s[-1]), tuple(warnings))
 
 

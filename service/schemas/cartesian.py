@@ -138,6 +138,12 @@ class CartesianTaskSpec(StrictModel):
         description="When the line cannot be completed: 200 with the planned prefix (fraction < 1, "
         "diagnostics.failure) instead of 422.",
     )
+    allow_violations: bool = Field(
+        default=False,
+        description="Accept a plan that leaves the tolerance between its returned points or exceeds "
+        "a joint's acceleration limit (the warnings say where and by how much). Default: such a "
+        "plan is 422 (infeasible or joint_rate_limit) naming the cause and what to change.",
+    )
     solver: str = Field(
         default="osqp",
         min_length=1,

@@ -19,7 +19,9 @@ from robots import registry
 from service.app import create_app
 from service.schemas.cartesian import Method
 from service.settings import Settings
+from tests.core.conftest import offset_move
 from tests.ros_rules import check_ros_trajectory
+from tests.service.conftest import pose_body
 from tests.toy_kinematics import FlippingToy
 
 URL = "/v1/trajectories/cartesian"
@@ -297,3 +299,31 @@ def test_openapi_documents_the_endpoint(client):
         assert name in props
     for name in ("duration", "max_linear_speed", "samples", "control_period"):
         assert props[name].get("description")
+
+
+def _panda_line(**extra) -> dict:
+    """Issue 19's repro: a Panda line (0.27 m, 30 degrees) timed tightly or sampled sparsely."""
+    panda = registry.get("panda")
+    T = offset_move(panda, panda.home, np.array([0.2, 0.1, -0.15]), (1.0, 0.0, 1.0), np.radians(30))
+    body = {
+        "robot": "panda",
+        "start": {"positions": panda.home.tolist()},
+        "goal": {"pose": pose_body(T)},
+        "method": "sampled",
+    }
+    return {**body, **extra}
+
+
+@pytest.mark.parametrize(
+    ("extra", "code"),
+    [
+        ({"duration": 0.71, "sample_period": 0.05}, "joint_rate_limit"),  # accelerations 1.2x
+        ({"duration": 2.0, "samples": 4}, "infeasible"),  # 2.6 mm between 4 points
+    ],
+)
+def test_a_200_is_within_tolerance_and_limits_unless_violations_are_allowed(client, extra, code):
+    body = problem(client.post(URL, json=_panda_line(**extra)), 422, code)
+    assert "allow_violations" in body["detail"]
+    allowed = client.post(URL, json=_panda_line(allow_violations=True, **extra))
+    assert allowed.status_code == 200, allowed.text
+    assert allowed.json()["diagnostics"]["warnings"], "an accepted violation is reported"

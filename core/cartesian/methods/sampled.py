@@ -38,8 +38,13 @@ from core.errors import (
 )
 from core.geometry import so3
 from core.path.line import StraightLine
+from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS
 
 _MAX_RETIMES = 4
+DENSIFY_FACTOR = 4.0
+"""Returned points this many times closer per densifying round."""
+DENSIFY_ROUNDS = 3
+"""Most densifying rounds (0.01 s down to 0.16 ms)."""
 BATCH_MIN_POINTS = 8
 """From this many points on, the returned points are first solved together (``_batch_solve``)."""
 BATCH_ITERATIONS = 8
@@ -165,13 +170,37 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
         if failure is not None and (not task.allow_partial or walk.end <= MIN_STEP):
             raise failure
         try:
-            return _timed_result(task, line, walk, failure)
+            return _densified(task, line, walk, failure)
         except PARTIAL_ERRORS as err:
             # A returned point between walked points failed: with allow_partial, stop before it.
             attempts += 1
             if not task.allow_partial or err.s is None or attempts >= PARTIAL_TRIES:
                 raise
             walk, failure = walk.before(err.s), err
+
+
+def _densified(
+    task: CartesianTask, line: StraightLine, walk: LineWalk, failure: PlanningError | None
+) -> CartesianResult:
+    """``_timed_result``; when the request left the sampling to the service (neither ``samples``
+    nor ``sample_period``) and interpolation between the points strays over the tolerance, the
+    points are placed ``DENSIFY_FACTOR`` times closer, up to ``DENSIFY_ROUNDS`` times and
+    ``MAX_POINTS`` points (issue 19: densify where the request leaves room)."""
+    result = _timed_result(task, line, walk, failure)
+    if task.samples is not None or task.sample_period is not None:
+        return result
+    period = DEFAULT_SAMPLE_PERIOD
+    for _ in range(DENSIFY_ROUNDS):
+        dev = result.deviation
+        within = dev is None or (
+            dev.max_position <= task.position_tolerance
+            and dev.max_orientation <= task.orientation_tolerance
+        )
+        period /= DENSIFY_FACTOR
+        if within or result.trajectory.duration / period > MAX_POINTS:
+            break
+        result = _timed_result(replace(task, sample_period=period), line, walk, failure)
+    return result
 
 
 def _timed_result(

@@ -92,7 +92,7 @@ def _puma_wrist_task(registry, **kwargs) -> CartesianTask:
     robot = registry.get("puma560")
     q_start = np.array([0.0, 0.6, -2.6, 0.3, 0.25, 0.0])
     T_goal = robot.fk(np.array([0.2, 0.7, -2.4, 0.32, -0.25, 0.0]))
-    return CartesianTask(robot, q_start, T_goal, duration=2.0, **kwargs)
+    return CartesianTask(robot, q_start, T_goal, duration=2.0, allow_violations=True, **kwargs)
 
 
 def test_puma_wrist_singularity_pinv_refuses_dls_completes(registry):
@@ -135,7 +135,9 @@ def _limit_task(**kwargs) -> CartesianTask:
     """The line asks the elbow to open to 0.4 rad; its limit is 0.8 rad."""
     robot = _LimitedToy()
     T_goal = robot.fk(np.array([0.2, 0.4]))
-    return CartesianTask(robot, np.array([0.3, 1.2]), T_goal, duration=2.0, **kwargs)
+    return CartesianTask(
+        robot, np.array([0.3, 1.2]), T_goal, duration=2.0, allow_violations=True, **kwargs
+    )
 
 
 def test_joint_stops_at_position_limit_and_never_passes_it():
@@ -159,7 +161,9 @@ def test_joint_stops_at_position_limit_and_never_passes_it():
 
 def test_velocity_limits_slow_the_dls_along_the_line():
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(-0.6, 1.0), duration=0.3)
+    task = CartesianTask(
+        robot, np.array([0.3, 1.2]), xy(-0.6, 1.0), duration=0.3, allow_violations=True
+    )
     with pytest.raises(JointRateLimit):
         plan(task, "resolved_rate")
     result = plan(task, "resolved_rate_dls")
@@ -186,7 +190,9 @@ def test_goal_outside_workspace_fails_with_location():
 
 def test_sampling_controls():
     robot = ToyPlanar2R()
-    base = CartesianTask(robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=1.0)
+    base = CartesianTask(
+        robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=1.0, allow_violations=True
+    )
     result = plan(dataclasses.replace(base, samples=7), "resolved_rate_dls")
     assert len(result.trajectory.times) == 7
     fine = plan(dataclasses.replace(base, sample_period=4e-4, control_period=2e-3), "resolved_rate")
@@ -227,7 +233,14 @@ def test_other_qp_solver_through_qpsolvers():
     if not others:
         pytest.skip("no QP solver besides OSQP is installed")
     robot = ToyPlanar2R()
-    task = CartesianTask(robot, np.array([0.3, 1.2]), xy(0.6, 1.0), duration=0.5, solver=others[0])
+    task = CartesianTask(
+        robot,
+        np.array([0.3, 1.2]),
+        xy(0.6, 1.0),
+        duration=0.5,
+        solver=others[0],
+        allow_violations=True,
+    )
     result = plan(task, "resolved_rate_dls")
     reference = plan(dataclasses.replace(task, solver="osqp"), "resolved_rate_dls")
     assert result.diagnostics["solver"] == others[0]
@@ -244,7 +257,9 @@ def test_example_runs(registry):
 
 def test_singular_start_pinv_refuses_at_s0_dls_moves_off():
     robot = ToyPlanar2R()  # q = (0, 0): the arm fully stretched, rank 1
-    task = CartesianTask(robot, np.zeros(2), xy(1.2, 0.3), duration=1.0, allow_partial=True)
+    task = CartesianTask(
+        robot, np.zeros(2), xy(1.2, 0.3), duration=1.0, allow_partial=True, allow_violations=True
+    )
     partial = plan(task, "resolved_rate")
     assert isinstance(partial.failure, Singularity) and partial.failure.s == 0.0
     assert partial.fraction == 0.0 and len(partial.trajectory.times) == 2
