@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from core.line import rotvecs
+from core.geometry import so3
 
 CROSSING_SAMPLES = 2001
 """Samples of a path searched for where it crosses a sphere (then bisection to ``_BISECT``)."""
@@ -54,7 +54,7 @@ def _log(R: np.ndarray) -> np.ndarray:
     out = vee * scale[:, None]
     far = cos < -0.9
     if far.any():
-        out[far] = rotvecs(R[far])
+        out[far] = so3.log(R[far])
     return out
 
 
