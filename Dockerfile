@@ -6,6 +6,8 @@
 ARG BASE_IMAGE=python:3.11-slim
 
 FROM ${BASE_IMAGE} AS builder
+# deploy/build_and_run.sh removes the builder images this label marks once the image is built.
+LABEL org.trajectory-service.stage=builder
 
 ENV PYTHONDONTWRITEBYTECODE=1 \
     PIP_NO_CACHE_DIR=1 \
@@ -38,11 +40,13 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     TRAJ_WORKERS=1
 
 # libgomp1: the OpenMP runtime that pinocchio's wheel links against (slim images lack it).
+# apt's package lists and caches go in the same layer (80 MB where the base does not clean them).
 # The base image's Python headers are for building extensions; nothing is built here.
 # hadolint ignore=DL3008
 RUN apt-get update \
     && apt-get install -y --no-install-recommends libgomp1 \
-    && rm -rf /var/lib/apt/lists/* /usr/local/include \
+    && apt-get clean \
+    && rm -rf /var/lib/apt/lists/* /var/cache/apt/*.bin /usr/local/include \
     && groupadd --gid 10001 app \
     && useradd --uid 10001 --gid 10001 --no-create-home --shell /usr/sbin/nologin app
 COPY --from=builder /opt/venv /opt/venv

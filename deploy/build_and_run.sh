@@ -6,7 +6,7 @@
 # 1. podman, runc and mmdebstrap (Debian packages) are installed when missing (root, or sudo -n).
 # 2. The base: BASE_IMAGE if set; else python:3.11-slim when Docker Hub answers; else a stand-in
 #    built from Debian packages (mmdebstrap bookworm minbase + python3, imported into podman,
-#    deploy/standin-base/Containerfile on top), reused by later runs.
+#    deploy/standin-base/Containerfile on top), reused by later runs while its recipe is unchanged.
 # 3. `podman build` of the project's Dockerfile, tagged trajectory-service:<version of pyproject>,
 #    the image deploy/compose.yaml and deploy/k8s/ name. Build time and image size are printed.
 # 4. The container starts (its own network namespace, port 8000 published on a free loopback port),
@@ -15,6 +15,7 @@
 #    every process in the container must run as uid 10001. The container is removed on exit.
 #
 # Environment: IMAGE (tag), BASE_IMAGE, KEEP_IMAGE=1 (default; 0 removes the image at the end),
+# KEEP_BUILD_CACHE=1 (keep the builder stage's images, so a rebuild reuses its pip install layer),
 # HOST_PORT (default: a free port), PODMAN_STORAGE_DRIVER (default vfs), TIMING_FILE (append
 # "build_seconds=... image_bytes=..." lines there). Exit status 0 only when every check passed.
 set -euo pipefail
@@ -23,8 +24,17 @@ ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$ROOT"
 VERSION="$(sed -n 's/^version = "\(.*\)"$/\1/p' pyproject.toml | head -n 1)"
 IMAGE="${IMAGE:-trajectory-service:${VERSION}}"
-STANDIN="localhost/trajectory-standin-base:bookworm"
-MINBASE="localhost/trajectory-base-minbase:bookworm"
+# The stand-in base: Debian bookworm minbase + Python 3.11 (python3-venv brings the pip wheel that
+# `python -m venv` installs), without documentation, manual pages and translations, as
+# debian:bookworm-slim (under python:3.11-slim) leaves them out. Its tag hashes this recipe and
+# deploy/standin-base/Containerfile, so a changed recipe builds a new base.
+MMDEBSTRAP_ARGS=(--variant=minbase --include=python3,python3-venv,ca-certificates
+    --dpkgopt='path-exclude=/usr/share/doc/*' --dpkgopt='path-include=/usr/share/doc/*/copyright'
+    --dpkgopt='path-exclude=/usr/share/man/*' --dpkgopt='path-exclude=/usr/share/locale/*'
+    --dpkgopt='path-exclude=/usr/share/info/*' bookworm)
+RECIPE="$( (printf '%s\n' "${MMDEBSTRAP_ARGS[@]}"; cat deploy/standin-base/Containerfile) | sha256sum | cut -c1-12)"
+STANDIN="localhost/trajectory-standin-base:bookworm-${RECIPE}"
+MINBASE="localhost/trajectory-base-minbase:bookworm-${RECIPE}"
 NAME="trajectory-smoke-$$"
 WORK="$(mktemp -d)"
 log() { printf '== %s\n' "$*"; }
@@ -70,8 +80,7 @@ if [ -z "${BASE_IMAGE:-}" ]; then
         BASE_IMAGE="$STANDIN"
         if ! "${PODMAN[@]}" image exists "$STANDIN"; then
             log "Docker Hub unreachable: building the stand-in base $STANDIN from Debian packages"
-            mmdebstrap --variant=minbase --include=python3,python3-venv,python3-pip,ca-certificates \
-                bookworm "$WORK/base.tar"
+            mmdebstrap "${MMDEBSTRAP_ARGS[@]}" "$WORK/base.tar"
             "${PODMAN[@]}" import "$WORK/base.tar" "$MINBASE" >/dev/null
             rm -f "$WORK/base.tar"
             mkdir -p "$WORK/standin"
@@ -90,6 +99,9 @@ start=$(date +%s)
 "${PODMAN[@]}" build --format docker --network host --build-arg "BASE_IMAGE=$BASE_IMAGE" \
     -t "$IMAGE" -f Dockerfile .
 build_seconds=$(($(date +%s) - start))
+if [ "${KEEP_BUILD_CACHE:-0}" != "1" ]; then  # vfs stores every layer whole: drop the builder stage
+    "${PODMAN[@]}" image prune -f --filter label=org.trajectory-service.stage=builder >/dev/null || true
+fi
 image_bytes=$("${PODMAN[@]}" image inspect --format '{{.Size}}' "$IMAGE")
 log "built in ${build_seconds} s; image size $((image_bytes / 1000000)) MB (${image_bytes} bytes)"
 if [ -n "${TIMING_FILE:-}" ]; then
