@@ -10,9 +10,10 @@
 # 3. `podman build` of the project's Dockerfile, tagged trajectory-service:<version of pyproject>,
 #    the image deploy/compose.yaml and deploy/k8s/ name. Build time and image size are printed.
 # 4. The container starts (its own network namespace, port 8000 published on a free loopback port),
-#    the script runs the image's own HEALTHCHECK until it passes, then deploy/smoke_check.py sends a
-#    joint plan, a Cartesian plan on the UR5 and a bounded_deviation_nlp plan and checks the answers;
-#    every process in the container must run as uid 10001. The container is removed on exit.
+#    the script runs the image's own HEALTHCHECK until it passes, checks that every process in the
+#    container runs as uid 10001 and that every module of core/, robots/ and service/ imports, then
+#    deploy/smoke_check.py sends a joint plan, a Cartesian plan on the UR5 and a
+#    bounded_deviation_nlp plan and checks the answers. The container is removed on exit.
 #
 # Environment: IMAGE (tag), BASE_IMAGE, KEEP_IMAGE=1 (default; 0 removes the image at the end),
 # KEEP_BUILD_CACHE=1 (keep the builder stage's images, so a rebuild reuses its pip install layer),
@@ -146,6 +147,19 @@ for pid in filter(str.isdigit, os.listdir("/proc")):
 print(uids)
 bad = {pid: u for pid, u in uids.items() if set(u[1]) != {"10001"}}
 sys.exit(1 if bad or not uids or os.getuid() != 10001 else 0)
+'
+
+log "every module of the service imports inside the image"
+"${PODMAN[@]}" exec "$NAME" python -c '
+import importlib, pkgutil
+names = []
+for package in ("core", "robots", "service"):
+    module = importlib.import_module(package)
+    names.append(package)
+    for info in pkgutil.walk_packages(module.__path__, package + "."):
+        importlib.import_module(info.name)
+        names.append(info.name)
+print(len(names), "modules imported")
 '
 
 log "plans through the public API"
