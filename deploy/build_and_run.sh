@@ -96,12 +96,17 @@ log "base image: $BASE_IMAGE"
 
 # ---- 3. build
 log "building $IMAGE"
+previous=$("${PODMAN[@]}" image inspect --format '{{.Id}}' "$IMAGE" 2>/dev/null || true)
 start=$(date +%s)
 "${PODMAN[@]}" build --format docker --network host --build-arg "BASE_IMAGE=$BASE_IMAGE" \
     -t "$IMAGE" -f Dockerfile .
 build_seconds=$(($(date +%s) - start))
 if [ "${KEEP_BUILD_CACHE:-0}" != "1" ]; then  # vfs stores every layer whole: drop the builder stage
     "${PODMAN[@]}" image prune -f --filter label=org.trajectory-service.stage=builder >/dev/null || true
+fi
+current=$("${PODMAN[@]}" image inspect --format '{{.Id}}' "$IMAGE")
+if [ -n "$previous" ] && [ "$previous" != "$current" ]; then  # the image this tag named before
+    "${PODMAN[@]}" rmi "$previous" >/dev/null 2>&1 || true
 fi
 image_bytes=$("${PODMAN[@]}" image inspect --format '{{.Size}}' "$IMAGE")
 log "built in ${build_seconds} s; image size $((image_bytes / 1000000)) MB (${image_bytes} bytes)"
