@@ -743,9 +743,15 @@ def allowed_self_pairs(
         lo, hi = np.maximum(lo, -math.pi), np.minimum(hi, math.pi)
         qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, robot.dof))
         touch = checker.distances(qs) < 0
-        for p, name in enumerate(checker.pair_names):
-            if not touch[:, p].any() or touch[:, p].all():
-                allowed.add(frozenset(name))
+        by_links: dict[frozenset[str], np.ndarray] = {}
+        for p, name in enumerate(
+            checker.pair_names
+        ):  # a link pair touches if any capsule pair does
+            key = frozenset(name)
+            by_links[key] = by_links.get(key, np.zeros(samples, dtype=bool)) | touch[:, p]
+        for key, t in by_links.items():
+            if not t.any() or t.all():
+                allowed.add(key)
     return frozenset(allowed)
 
 

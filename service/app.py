@@ -7,7 +7,16 @@ from fastapi import FastAPI
 from service import __version__, errors, metrics
 from service.body_limit import BodyLimitMiddleware
 from service.observability import ObservabilityMiddleware
-from service.routes import cartesian, compare, health, playground, ready, robots, trajectories
+from service.routes import (
+    cartesian,
+    collision,
+    compare,
+    health,
+    playground,
+    ready,
+    robots,
+    trajectories,
+)
 from service.settings import Settings
 
 
@@ -26,6 +35,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     errors.install(app)
     for module in (health, ready, metrics, robots, trajectories, cartesian, compare, playground):
         app.include_router(module.router)
+    app.include_router(collision.router)
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
     # Added last = outermost: request id, metrics and access line cover every answer, 413 included.
     app.add_middleware(

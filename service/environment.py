@@ -19,6 +19,7 @@ import numpy as np
 
 from core.errors import Collision, InputError
 from core.trajectory import Trajectory
+from robots import registry
 from robots.collision import CollisionChecker, Obstacle, robot_setup
 from robots.model import Robot
 from service.schemas.environment import Environment, Halfspace
@@ -212,3 +213,21 @@ def guard_cartesian(task: Any, result: Any, env: Environment | None, urdf: str |
 def inline_urdf(robot_ref: Any) -> str | None:
     """The URDF text of an inline robot reference, None for a registered name."""
     return getattr(robot_ref, "urdf", None) if not isinstance(robot_ref, str) else None
+
+
+def guard_request(body: Any, trajectory: Trajectory) -> Guarded:
+    """``guard`` for a joint-space request (``robot``, ``environment``, optional ``allow_partial``):
+    nothing to check without a robot; an environment without a robot is 422 at the field."""
+    env = getattr(body, "environment", None)
+    if body.robot is None:
+        if env is not None:
+            raise InputError("an environment needs a robot", field=("environment",))
+        return Guarded(trajectory, {})
+    robot = registry.resolve(body.robot)
+    return guard(
+        robot,
+        env,
+        trajectory,
+        urdf=inline_urdf(body.robot),
+        allow_partial=bool(getattr(body, "allow_partial", False)),
+    )

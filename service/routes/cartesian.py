@@ -12,7 +12,7 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from robots import registry
-from service import cartesian_convert
+from service import cartesian_convert, environment
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
 from service.schemas.common import TIME_FORMAT_QUERY, TimeFormat, trajectory_responses
@@ -45,6 +45,9 @@ def cartesian_trajectory(
     robot = registry.resolve(body.robot)
     task = cartesian_convert.task_from_spec(body, robot, deadline, settings.max_points)
     result, elapsed_ms = cartesian_convert.run(task, body.method, settings.max_points)
+    result = environment.guard_cartesian(
+        task, result, body.environment, environment.inline_urdf(body.robot)
+    )
     return json_response(
         cartesian_convert.result_body(task, result, body.method, elapsed_ms, time_format)
     )

@@ -17,7 +17,7 @@ from core.budget import Deadline
 from core.cartesian_task import METHODS
 from core.errors import PlanningError
 from robots import registry
-from service import cartesian_convert
+from service import cartesian_convert, environment
 from service.encoding import json_response
 from service.errors import planning_error_body
 from service.schemas.common import PROBLEM_RESPONSES, TIME_FORMAT_QUERY, TimeFormat
@@ -51,6 +51,9 @@ def compare(
         started = time.perf_counter()
         try:
             result, elapsed_ms = cartesian_convert.run(task, method, settings.max_points)
+            result = environment.guard_cartesian(
+                task, result, body.task.environment, environment.inline_urdf(body.task.robot)
+            )
         except PlanningError as err:
             _, problem = planning_error_body(err)
             elapsed = (time.perf_counter() - started) * 1e3

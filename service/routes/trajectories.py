@@ -15,7 +15,7 @@ from starlette.responses import Response
 from core.budget import Deadline
 from core.point_to_point import plan_joint
 from core.splines import plan_spline
-from service import convert
+from service import convert, environment
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
     TimeFormat,
@@ -49,8 +49,9 @@ def joint_trajectory(
         max_points=request.app.state.settings.max_points,
         joint_names=names,
     )
+    checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
-        plan.trajectory, body.profile, plan.warnings, started, time_format
+        checked.trajectory, body.profile, plan.warnings, started, time_format, **checked.diagnostics
     )
 
 
@@ -78,12 +79,14 @@ def spline_trajectory(
         joint_names=inputs.joint_names,
         deadline=Deadline(settings.time_budget_s),
     )
+    checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
-        plan.trajectory,
+        checked.trajectory,
         "spline",
         plan.warnings,
         started,
         time_format,
         boundary=body.boundary,
         knot_times=plan.knot_times,
+        **checked.diagnostics,
     )
