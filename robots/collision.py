@@ -290,29 +290,28 @@ class _Joints:
         )
 
     def placements(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World rotations ``(N, J+1, 3, 3)`` and origins ``(N, J+1, 3)`` of every joint (index 0: the
-        root) for each row of ``qs`` ``(N, nq)``."""
+        """World rotations ``(J+1, N, 3, 3)`` and origins ``(J+1, N, 3)`` of every joint (index 0:
+        the root) for each row of ``qs`` ``(N, nq)``."""
         n, J = qs.shape[0], len(self.parents)
-        Rw = np.empty((n, J + 1, 3, 3))
-        pw = np.empty((n, J + 1, 3))
-        Rw[:, 0], pw[:, 0] = np.eye(3), 0.0
+        Rw = np.empty((J + 1, n, 3, 3))
+        pw = np.empty((J + 1, n, 3))
+        Rw[0], pw[0] = np.eye(3), 0.0
         for k in range(J):
             par = self.parents[k]
-            Rp = Rw[:, par] @ self.R[k]
-            pw[:, k + 1] = pw[:, par] + Rw[:, par] @ self.p[k]
+            flat = Rw[par].reshape(3 * n, 3)  # rows of every R: one BLAS product per constant
+            Rp = flat @ self.R[k]
+            pw[k + 1] = pw[par] + (flat @ self.p[k]).reshape(n, 3)
             x = qs[:, self.q_index[k]]
             a = self.axis[k]
             if self.revolute[k]:
                 K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-                Rot = (
-                    np.eye(3)
-                    + np.sin(x)[:, None, None] * K
-                    + (1.0 - np.cos(x))[:, None, None] * (K @ K)
-                )
-                Rw[:, k + 1] = Rp @ Rot
+                # Rp Rot(x) = Rp + sin(x) Rp K + (1 - cos(x)) Rp K^2 (Rodrigues)
+                s_ = np.repeat(np.sin(x), 3)[:, None]
+                c_ = np.repeat(1.0 - np.cos(x), 3)[:, None]
+                Rw[k + 1] = (Rp + s_ * (Rp @ K) + c_ * (Rp @ (K @ K))).reshape(n, 3, 3)
             else:
-                Rw[:, k + 1] = Rp
-                pw[:, k + 1] += (Rp @ a) * x[:, None]
+                Rw[k + 1] = Rp.reshape(n, 3, 3)
+                pw[k + 1] += (Rp @ a).reshape(n, 3) * x[:, None]
         return Rw, pw
 
 
@@ -494,22 +493,35 @@ class CollisionChecker:
         """Capsule ends in the base frame: ``(N, G, 3)`` twice."""
         Rw, pw = self._joints.placements(qs)
         g = self.geometry
-        Rg, pg = Rw[:, g.joints], pw[:, g.joints]
-        A = np.einsum("ngij,gj->ngi", Rg, g.a) + pg
-        B = np.einsum("ngij,gj->ngi", Rg, g.b) + pg
-        if not np.array_equal(self._T_base_world, np.eye(4)):
-            R, t = self._T_base_world[:3, :3], self._T_base_world[:3, 3]
-            A, B = A @ R.T + t, B @ R.T + t
+        n = qs.shape[0]
+        A = np.empty((n, len(g.links), 3))
+        B = np.empty((n, len(g.links), 3))
+        T = self._T_base_world
+        moved = not np.array_equal(T, np.eye(4))
+        for i, j in enumerate(g.joints):
+            flat = Rw[j].reshape(3 * n, 3)
+            A[:, i] = (flat @ g.a[i]).reshape(n, 3) + pw[j]
+            B[:, i] = (flat @ g.b[i]).reshape(n, 3) + pw[j]
+        if moved:
+            A = A @ T[:3, :3].T + T[:3, 3]
+            B = B @ T[:3, :3].T + T[:3, 3]
         return A, B
 
     def distances(self, qs: np.ndarray) -> np.ndarray:
         """Signed distances ``(N, P)`` [m] of every checked pair (``pair_names`` order) for each row of
         ``qs`` ``(N, dof)``; negative: penetration."""
+        return self._distances(qs, math.inf)[0]
+
+    def _distances(self, qs: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
+        """``distances`` where a box or cylinder pair whose bounding-sphere lower bound is at least
+        ``cutoff`` [m] keeps that bound: entries below ``cutoff`` are exact, the others are lower
+        bounds >= ``cutoff``; the mask (N, P) says which entries are exact."""
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
         n = qs.shape[0]
         out = np.empty((n, self.n_pairs))
+        exact = np.ones((n, self.n_pairs), dtype=bool)
         if self.n_pairs == 0:
-            return out
+            return out, exact
         A, B = self._capsules_world(qs)
         rad = self.geometry.radius
         if self._obs_pairs:
@@ -520,42 +532,70 @@ class CollisionChecker:
                 if not sel.any():
                     continue
                 idx = np.flatnonzero(sel)
-                out[:, idx] = (
-                    self._obstacle_distance(shape, A[:, ci[idx]], B[:, ci[idx]], ok[idx])
-                    - rad[ci[idx]]
+                d, ex = self._obstacle_distance(
+                    shape, A[:, ci[idx]], B[:, ci[idx]], ok[idx], rad[ci[idx]], cutoff
                 )
+                out[:, idx], exact[:, idx] = d, ex
         if self._self_pairs:
             off = len(self._obs_pairs)
             i = np.array([p[0] for p in self._self_pairs])
             j = np.array([p[1] for p in self._self_pairs])
             d, _, _ = segment_segment(A[:, i], B[:, i], A[:, j], B[:, j])
             out[:, off:] = d - rad[i] - rad[j]
-        return out
+        return out, exact
 
     def _obstacle_distance(
-        self, shape: str, A: np.ndarray, B: np.ndarray, ok: np.ndarray
-    ) -> np.ndarray:
-        """Distance from segments ``A-B`` ``(N, m, 3)`` to obstacles ``ok`` ``(m,)`` of one shape."""
+        self,
+        shape: str,
+        A: np.ndarray,
+        B: np.ndarray,
+        ok: np.ndarray,
+        rad: np.ndarray,
+        cutoff: float,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Distance from capsules ``A-B`` ``(N, m, 3)``, radii ``rad`` ``(m,)``, to obstacles ``ok``
+        ``(m,)`` of one shape, and which entries are exact (see ``_distances``)."""
         obs = [self.obstacles[k] for k in ok]
+        exact = np.ones(A.shape[:2], dtype=bool)
         if shape == "halfspace":
             nrm = np.array([o.normal for o in obs])
             off = np.array([o.offset for o in obs])
-            return (
-                np.minimum(np.einsum("nmi,mi->nm", A, nrm), np.einsum("nmi,mi->nm", B, nrm)) - off
-            )
-        Tinv = self._obs_T_inv[ok]
-        a = np.einsum("mij,nmj->nmi", Tinv[:, :3, :3], A) + Tinv[:, :3, 3]
-        b = np.einsum("mij,nmj->nmi", Tinv[:, :3, :3], B) + Tinv[:, :3, 3]
+            lowest = np.minimum((A * nrm).sum(axis=-1), (B * nrm).sum(axis=-1))
+            return lowest - off - rad, exact
+        a, b = np.empty_like(A), np.empty_like(B)
+        for k in np.unique(ok):  # one BLAS product per obstacle
+            cols = np.flatnonzero(ok == k)
+            Ti = self._obs_T_inv[k]
+            shape_ = (A.shape[0], len(cols), 3)
+            a[:, cols] = (A[:, cols].reshape(-1, 3) @ Ti[:3, :3].T + Ti[:3, 3]).reshape(shape_)
+            b[:, cols] = (B[:, cols].reshape(-1, 3) @ Ti[:3, :3].T + Ti[:3, 3]).reshape(shape_)
         if shape in ("sphere", "capsule"):
             h = np.array([[0.0, 0.0, o.length / 2 if shape == "capsule" else 0.0] for o in obs])
             d, _, _ = segment_segment(a, b, -h, h)
-            return d - np.array([o.radius for o in obs])
+            return d - np.array([o.radius for o in obs]) - rad, exact
         if shape == "box":
-            half = np.array([o.size for o in obs]) / 2
-            return segment_sdf_min(a, b, lambda x: _sdf_box(x, half))
-        radius = np.array([o.radius for o in obs])
-        hl = np.array([o.length / 2 for o in obs])
-        return segment_sdf_min(a, b, lambda x: _sdf_cylinder(x, radius, hl))
+            par = np.array([o.size for o in obs]) / 2  # half extents
+            bound = np.linalg.norm(par, axis=1)
+        else:
+            par = np.array([[o.radius, o.length / 2, 0.0] for o in obs])
+            bound = np.hypot(par[:, 0], par[:, 1])
+        # bounding spheres: the obstacle's about its centre, the capsule's about its midpoint
+        lower = (
+            np.linalg.norm((a + b) / 2, axis=-1) - np.linalg.norm(b - a, axis=-1) / 2 - bound - rad
+        )
+        exact = lower < cutoff
+        out = lower.copy()
+        rows, cols = np.nonzero(exact)
+        if len(rows):
+            pe = par[cols]
+            if shape == "box":
+                d = segment_sdf_min(a[rows, cols], b[rows, cols], lambda x: _sdf_box(x, pe))
+            else:
+                d = segment_sdf_min(
+                    a[rows, cols], b[rows, cols], lambda x: _sdf_cylinder(x, pe[:, 0], pe[:, 1])
+                )
+            out[rows, cols] = d - rad[cols]
+        return out, exact
 
     # continuous check --------------------------------------------------------------------------
     def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
@@ -566,7 +606,11 @@ class CollisionChecker:
         if self.n_pairs == 0:
             return PathCheck(None, math.inf, None, 0)
         thr = self.threshold
-        D = self.distances(qs)
+        # Entries at or above the cutoff may be bounding-sphere lower bounds: such a pair passes the
+        # segment test (d_a + d_b - B) / 2 >= threshold for every segment, so it needs no exact value.
+        steps = np.abs(np.diff(qs, axis=0)).max(axis=0) if len(qs) > 1 else np.zeros(qs.shape[1])
+        cutoff = float(thr.max() + (self._weights @ steps).max())
+        D, exact = self._distances(qs, cutoff)
         evaluations = len(qs)
         best_t, best_d, best_p = math.inf, 0.0, -1
         best_seg = -1
@@ -580,7 +624,7 @@ class CollisionChecker:
                 p,
                 max(row - 1, 0),
             )
-        mn_row, mn_p = np.unravel_index(int(np.argmin(D)), D.shape)
+        mn_row, mn_p = self._exact_argmin(qs, D, exact)
         min_d, min_t, min_p = float(D[mn_row, mn_p]), float(times[mn_row]), int(mn_p)
         # intervals: ta, tb, qa, qb, Da, Db, segment index
         ta, tb, qa, qb, Da, Db = times[:-1], times[1:], qs[:-1], qs[1:], D[:-1], D[1:]
@@ -610,7 +654,7 @@ class CollisionChecker:
                 break
             tm = (ta[rows] + tb[rows]) / 2
             qm = (qa[rows] + qb[rows]) / 2
-            Dm = self.distances(qm)
+            Dm, exm = self._distances(qm, cutoff)
             evaluations += len(rows)
             badm = Dm < thr
             if badm.any():
@@ -624,8 +668,9 @@ class CollisionChecker:
                         p,
                         int(seg[rows[r]]),
                     )
-            r2, p2 = np.unravel_index(int(np.argmin(Dm)), Dm.shape)
-            if Dm[r2, p2] < min_d:
+            Dx = np.where(exm, Dm, np.inf)
+            r2, p2 = np.unravel_index(int(np.argmin(Dx)), Dx.shape)
+            if Dx[r2, p2] < min_d:
                 min_d, min_t, min_p = float(Dm[r2, p2]), float(tm[r2]), int(p2)
             ta = np.concatenate([ta[rows], tm])
             tb = np.concatenate([tm, tb[rows]])
@@ -636,6 +681,16 @@ class CollisionChecker:
         if best_p >= 0:
             contact = Contact(best_t, self.pair_names[best_p], best_d, best_seg)
         return PathCheck(contact, min_d, (self.pair_names[min_p], min_t), evaluations)
+
+    def _exact_argmin(self, qs: np.ndarray, D: np.ndarray, exact: np.ndarray) -> tuple[int, int]:
+        """Row and pair of the smallest distance, making bound entries exact until the smallest
+        entry is exact (an exact value is never below its bound). Updates ``D`` and ``exact``."""
+        while True:
+            r, p = np.unravel_index(int(np.argmin(D)), D.shape)
+            if exact[r, p]:
+                return int(r), int(p)
+            row, _ = self._distances(qs[r : r + 1], math.inf)
+            D[r], exact[r] = row[0], True
 
     # one configuration, with coal ----------------------------------------------------------------
     def geometry_model(self) -> tuple[pin.GeometryModel, list[tuple[str, str]]]:
