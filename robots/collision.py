@@ -39,6 +39,7 @@ import math
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import coal
 import defusedxml.ElementTree as DET
@@ -53,6 +54,8 @@ MOTION_TOLERANCE = 1e-7
 """[m] A segment whose motion bound is below this and whose ends are clear counts as clear."""
 MAX_LEVELS = 60
 """Most halvings of one returned segment (2^-60 of its motion: far below ``MOTION_TOLERANCE``)."""
+KEY_STEP = 16
+"""The continuous check first evaluates every KEY_STEP-th returned point, then refines."""
 SAMPLES_FOR_ALLOWED = 4000
 """Random configurations that decide which self pairs never touch (``allowed_self_collisions``)."""
 SHAPES = ("box", "sphere", "cylinder", "capsule", "halfspace")
@@ -106,10 +109,10 @@ class PathCheck:
 
     Attributes:
         contact: First contact, or None when the motion is clear.
-        min_clearance: [m] smallest distance over every configuration evaluated (the returned points
-            and every split point), over every checked pair; inf when no pair is checked.
+        min_clearance: [m] smallest distance over every checked pair at the returned points (exact:
+            branch and bound) and at the split points evaluated; inf when no pair is checked.
         closest: ``(links, time)`` of that smallest distance.
-        evaluations: Configurations evaluated (returned points plus split points).
+        evaluations: Pair distances computed.
     """
 
     contact: Contact | None
@@ -438,6 +441,7 @@ class CollisionChecker:
         )
         self._weights = self._motion_weights()
         self._prepare_obstacles()
+        self._prepare_entries()
 
     @property
     def n_pairs(self) -> int:
@@ -598,99 +602,220 @@ class CollisionChecker:
         return out, exact
 
     # continuous check --------------------------------------------------------------------------
+    # per-entry distances ---------------------------------------------------------------------
+    def _prepare_entries(self) -> None:
+        """Per-pair and per-obstacle arrays for ``_entries``."""
+        self._ci = np.array([i for i, _ in self._obs_pairs], dtype=int)
+        self._ok = np.array([k for _, k in self._obs_pairs], dtype=int)
+        self._si = np.array([i for i, _ in self._self_pairs], dtype=int)
+        self._sj = np.array([j for _, j in self._self_pairs], dtype=int)
+        obs = self.obstacles
+        self._kind = np.array([SHAPES.index(o.shape) for o in obs], dtype=int)
+        self._radius = np.array([o.radius for o in obs])
+        self._half_length = np.array([o.length / 2 if o.shape == "capsule" else 0.0 for o in obs])
+        self._cyl = np.array([[o.radius, o.length / 2] for o in obs]).reshape(-1, 2)
+        self._half = np.array([np.resize(np.array(o.size, float), 3) / 2 for o in obs]).reshape(
+            -1, 3
+        )
+        self._normal = np.array([o.normal for o in obs], dtype=float).reshape(-1, 3)
+        self._bound = np.array(  # bounding-sphere radius about the centre (box, cylinder)
+            [np.linalg.norm(self._half[k]) if o.shape == "box" else np.hypot(*self._cyl[k])
+             for k, o in enumerate(obs)]
+        )  # fmt: skip
+        self._offset = np.array([o.offset for o in obs])
+
+    def _entries(
+        self,
+        A: np.ndarray,
+        B: np.ndarray,
+        r: np.ndarray,
+        p: np.ndarray,
+        floor: float = math.inf,
+    ) -> np.ndarray:
+        """Distances [m] of pairs ``p`` (K,) at configurations ``r`` (K,), rows of the capsule ends
+        ``A``, ``B`` (n, G, 3): the same closed forms as ``distances``, one vector per entry list.
+
+        Box and cylinder entries whose lower bound (distance to the obstacle's bounding sphere) is
+        at least ``max(threshold, min(floor, the smallest other distance of the call))`` keep that
+        bound: they can be neither a contact nor the smallest distance, and a lower bound keeps every
+        interval test of the continuous check valid."""
+        out = np.empty(len(r))
+        rad = self.geometry.radius
+        n_obs = len(self._obs_pairs)
+        is_obs = p < n_obs
+        if (~is_obs).any():
+            e = np.flatnonzero(~is_obs)
+            i, j = self._si[p[e] - n_obs], self._sj[p[e] - n_obs]
+            d, _, _ = segment_segment(A[r[e], i], B[r[e], i], A[r[e], j], B[r[e], j])
+            out[e] = d - rad[i] - rad[j]
+        if not is_obs.any():
+            return out
+        e = np.flatnonzero(is_obs)
+        ci, ok = self._ci[p[e]], self._ok[p[e]]
+        a, b = A[r[e], ci], B[r[e], ci]
+        kind = self._kind[ok]
+        hs = kind == SHAPES.index("halfspace")
+        if hs.any():
+            n_, off = self._normal[ok[hs]], self._offset[ok[hs]]
+            low = np.minimum((a[hs] * n_).sum(axis=1), (b[hs] * n_).sum(axis=1))
+            out[e[hs]] = low - off - rad[ci[hs]]
+        rest = np.flatnonzero(~hs)
+        if len(rest) == 0:
+            return out
+        Ti = self._obs_T_inv[ok[rest]]
+        al = np.einsum("kij,kj->ki", Ti[:, :3, :3], a[rest]) + Ti[:, :3, 3]
+        bl = np.einsum("kij,kj->ki", Ti[:, :3, :3], b[rest]) + Ti[:, :3, 3]
+        k_rest, o_rest, c_rest = kind[rest], ok[rest], ci[rest]
+        for shape in ("sphere", "capsule", "box", "cylinder"):
+            m = k_rest == SHAPES.index(shape)
+            if not m.any():
+                continue
+            if shape in ("box", "cylinder"):
+                done = np.ones(len(out), dtype=bool)
+                boxy = np.isin(k_rest, (SHAPES.index("box"), SHAPES.index("cylinder")))
+                done[e[rest[boxy]]] = False  # every other entry is filled by now
+                level = min(floor, float(out[done].min()) if done.any() else math.inf)
+                level = max(level, float(self.threshold.max()))
+                o = o_rest[m]
+                zero = np.zeros((int(m.sum()), 3))
+                lb, _, _ = segment_segment(al[m], bl[m], zero, zero)
+                lb = lb - self._bound[o] - rad[c_rest[m]]
+                far = lb >= level
+                out[e[rest[np.flatnonzero(m)[far]]]] = lb[far]
+                m = m.copy()
+                m[np.flatnonzero(m)[far]] = False
+                if not m.any():
+                    continue
+            o = o_rest[m]
+            if shape in ("sphere", "capsule"):
+                h = np.zeros((len(o), 3))
+                h[:, 2] = self._half_length[o]
+                d, _, _ = segment_segment(al[m], bl[m], -h, h)
+                d = d - self._radius[o]
+            elif shape == "box":
+                half = self._half[o]
+                d = segment_sdf_min(al[m], bl[m], lambda x, half=half: _sdf_box(x, half))
+            else:
+                cyl = self._cyl[o]
+                d = segment_sdf_min(
+                    al[m], bl[m], lambda x, cyl=cyl: _sdf_cylinder(x, cyl[:, 0], cyl[:, 1])
+                )
+            out[e[rest[m]]] = d - rad[c_rest[m]]
+        return out
+
+    # continuous check --------------------------------------------------------------------------
     def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
         """Continuous check of the motion through ``qs`` ``(N, dof)`` at ``times`` ``(N,)`` [s],
-        joints moving linearly between consecutive rows."""
+        joints moving linearly between consecutive rows.
+
+        Branch and bound on (interval of returned points, pair): every ``KEY_STEP``-th point is
+        evaluated for every pair; over an interval the distance of a pair cannot fall below
+        ``(d_i + d_j - B_ij) / 2``, with ``B_ij`` the pair's motion bound applied to the joint
+        travel summed over the interval's segments. An interval is split (at its middle returned
+        point) while that bound is below the threshold (contact) or below the smallest distance
+        found so far (so ``min_clearance`` is the exact minimum over the returned points). A single
+        segment still below the threshold is split at joint midpoints until it is clear or the
+        contact is located."""
         times = np.asarray(times, dtype=float)
         qs = np.asarray(qs, dtype=float)
-        if self.n_pairs == 0:
+        n, P = len(qs), self.n_pairs
+        if P == 0:
             return PathCheck(None, math.inf, None, 0)
-        thr = self.threshold
-        # Entries at or above the cutoff may be bounding-sphere lower bounds: such a pair passes the
-        # segment test (d_a + d_b - B) / 2 >= threshold for every segment, so it needs no exact value.
-        steps = np.abs(np.diff(qs, axis=0)).max(axis=0) if len(qs) > 1 else np.zeros(qs.shape[1])
-        cutoff = float(thr.max() + (self._weights @ steps).max())
-        D, exact = self._distances(qs, cutoff)
-        evaluations = len(qs)
-        best_t, best_d, best_p = math.inf, 0.0, -1
-        best_seg = -1
-        bad = D < thr
-        if bad.any():
-            row = int(np.argmax(bad.any(axis=1)))
-            p = int(np.argmin(D[row] - thr))
-            best_t, best_d, best_p, best_seg = (
-                float(times[row]),
-                float(D[row, p]),
-                p,
-                max(row - 1, 0),
-            )
-        mn_row, mn_p = self._exact_argmin(qs, D, exact)
-        min_d, min_t, min_p = float(D[mn_row, mn_p]), float(times[mn_row]), int(mn_p)
-        # intervals: ta, tb, qa, qb, Da, Db, segment index
-        ta, tb, qa, qb, Da, Db = times[:-1], times[1:], qs[:-1], qs[1:], D[:-1], D[1:]
-        seg = np.arange(len(times) - 1)
-        for _ in range(MAX_LEVELS):
-            keep = ta < best_t
-            Bnd = np.abs(qb[keep] - qa[keep]) @ self._weights.T
-            Da_, Db_ = Da[keep], Db[keep]
-            lower = (Da_ + Db_ - Bnd) / 2
-            need = (lower < thr) & (Da_ >= thr)
-            tiny = Bnd < MOTION_TOLERANCE
-            hit = need & tiny & (Db_ < thr)  # contact at tb, to within the tolerance
-            split = (need & ~tiny).any(axis=1)
-            idx_keep = np.flatnonzero(keep)
-            if hit.any():
-                r = int(np.argmin(np.where(hit.any(axis=1), tb[keep], np.inf)))
-                if tb[idx_keep[r]] < best_t:
-                    p = int(np.argmin(np.where(hit[r], Db_[r] - thr, np.inf)))
-                    best_t, best_d, best_p, best_seg = (
-                        float(tb[idx_keep[r]]),
-                        float(Db_[r, p]),
-                        p,
-                        int(seg[idx_keep[r]]),
-                    )
-            rows = idx_keep[split]
-            if len(rows) == 0:
-                break
-            tm = (ta[rows] + tb[rows]) / 2
-            qm = (qa[rows] + qb[rows]) / 2
-            Dm, exm = self._distances(qm, cutoff)
-            evaluations += len(rows)
-            badm = Dm < thr
-            if badm.any():
-                cand = np.where(badm.any(axis=1), tm, np.inf)
-                r = int(np.argmin(cand))
-                if cand[r] < best_t:
-                    p = int(np.argmin(Dm[r] - thr))
-                    best_t, best_d, best_p, best_seg = (
-                        float(tm[r]),
-                        float(Dm[r, p]),
-                        p,
-                        int(seg[rows[r]]),
-                    )
-            Dx = np.where(exm, Dm, np.inf)
-            r2, p2 = np.unravel_index(int(np.argmin(Dx)), Dx.shape)
-            if Dx[r2, p2] < min_d:
-                min_d, min_t, min_p = float(Dm[r2, p2]), float(tm[r2]), int(p2)
-            ta = np.concatenate([ta[rows], tm])
-            tb = np.concatenate([tm, tb[rows]])
-            qa, qb = np.concatenate([qa[rows], qm]), np.concatenate([qm, qb[rows]])
-            Da, Db = np.concatenate([Da[rows], Dm]), np.concatenate([Dm, Db[rows]])
-            seg = np.concatenate([seg[rows], seg[rows]])
-        contact = None
-        if best_p >= 0:
-            contact = Contact(best_t, self.pair_names[best_p], best_d, best_seg)
-        return PathCheck(contact, min_d, (self.pair_names[min_p], min_t), evaluations)
+        thr, W = self.threshold, self._weights
+        A, B = self._capsules_world(qs)
+        D = np.full((n, P), np.nan)
+        C = np.vstack([np.zeros(qs.shape[1]), np.cumsum(np.abs(np.diff(qs, axis=0)), axis=0)])
+        state = {"t": math.inf, "p": -1, "d": 0.0, "seg": -1, "min": math.inf, "min_t": 0.0,
+                 "min_p": -1, "count": 0}  # fmt: skip
 
-    def _exact_argmin(self, qs: np.ndarray, D: np.ndarray, exact: np.ndarray) -> tuple[int, int]:
-        """Row and pair of the smallest distance, making bound entries exact until the smallest
-        entry is exact (an exact value is never below its bound). Updates ``D`` and ``exact``."""
-        while True:
-            r, p = np.unravel_index(int(np.argmin(D)), D.shape)
-            if exact[r, p]:
-                return int(r), int(p)
-            row, _ = self._distances(qs[r : r + 1], math.inf)
-            D[r], exact[r] = row[0], True
+        def note(t: np.ndarray, seg: np.ndarray, pp: np.ndarray, d: np.ndarray) -> None:
+            state["count"] += len(d)
+            if len(d) == 0:
+                return
+            k = int(np.argmin(d))
+            if d[k] < state["min"]:
+                state.update(min=float(d[k]), min_t=float(t[k]), min_p=int(pp[k]))
+            bad = np.flatnonzero(d < thr[pp])
+            if len(bad):
+                b = bad[np.lexsort((d[bad] - thr[pp[bad]], t[bad]))[0]]
+                if t[b] < state["t"]:
+                    state.update(t=float(t[b]), p=int(pp[b]), d=float(d[b]), seg=int(seg[b]))
+
+        def evaluate(rows: np.ndarray, pp: np.ndarray) -> None:
+            flat = np.unique(rows * P + pp)
+            rows, pp = flat // P, flat % P
+            todo = np.isnan(D[rows, pp])
+            rows, pp = rows[todo], pp[todo]
+            d = self._entries(A, B, rows, pp, state["min"])
+            D[rows, pp] = d
+            note(times[rows], np.maximum(rows - 1, 0), pp, d)
+
+        keys = np.unique(np.r_[np.arange(0, n, KEY_STEP), n - 1])
+        evaluate(np.repeat(keys, P), np.tile(np.arange(P), len(keys)))
+        ii, jj = np.repeat(keys[:-1], P), np.repeat(keys[1:], P)
+        pp = np.tile(np.arange(P), len(keys) - 1)
+        segments: list[tuple[np.ndarray, np.ndarray]] = []
+        while len(ii):
+            Di, Dj = D[ii, pp], D[jj, pp]
+            lower = (Di + Dj - np.einsum("kd,kd->k", C[jj] - C[ii], W[pp])) / 2
+            need_c = (lower < thr[pp]) & (Di >= thr[pp]) & (times[ii] < state["t"])
+            need = need_c | (lower < state["min"])
+            multi = jj - ii > 1
+            one = need_c & ~multi
+            segments.append((ii[one], pp[one]))
+            split = need & multi
+            ii, jj, pp = ii[split], jj[split], pp[split]
+            mm = (ii + jj) // 2
+            evaluate(mm, pp)
+            ii, jj, pp = np.r_[ii, mm], np.r_[mm, jj], np.r_[pp, pp]
+        seg = np.concatenate([s_ for s_, _ in segments]).astype(int)
+        pp = np.concatenate([p_ for _, p_ in segments]).astype(int)
+        self._refine_segments(times, qs, D, seg, pp, note, state)
+        contact = None
+        if state["p"] >= 0:
+            contact = Contact(state["t"], self.pair_names[state["p"]], state["d"], state["seg"])
+        closest = (self.pair_names[state["min_p"]], state["min_t"])
+        return PathCheck(contact, state["min"], closest, state["count"])
+
+    def _refine_segments(
+        self,
+        times: np.ndarray,
+        qs: np.ndarray,
+        D: np.ndarray,
+        seg: np.ndarray,
+        pp: np.ndarray,
+        note: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None],
+        state: dict[str, Any],
+    ) -> None:
+        """Split single segments (``seg``, pair ``pp``) at joint midpoints until each is clear or
+        its contact is located (``MOTION_TOLERANCE``)."""
+        ta, tb, qa, qb = times[seg], times[seg + 1], qs[seg], qs[seg + 1]
+        Da, Db = D[seg, pp], D[seg + 1, pp]
+        thr, W = self.threshold, self._weights
+        for _ in range(MAX_LEVELS):
+            keep = ta < state["t"]
+            ta, tb, qa, qb, Da, Db, seg, pp = (x[keep] for x in (ta, tb, qa, qb, Da, Db, seg, pp))
+            if len(ta) == 0:
+                return
+            bound = np.einsum("kd,kd->k", np.abs(qb - qa), W[pp])
+            lower = (Da + Db - bound) / 2
+            need = (lower < thr[pp]) & (Da >= thr[pp])
+            tiny = bound < MOTION_TOLERANCE
+            hit = np.flatnonzero(need & tiny & (Db < thr[pp]))  # contact at tb, within tolerance
+            if len(hit):
+                k = hit[np.argmin(tb[hit])]
+                if tb[k] < state["t"]:
+                    state.update(t=float(tb[k]), p=int(pp[k]), d=float(Db[k]), seg=int(seg[k]))
+            split = need & ~tiny
+            ta, tb, qa, qb, Da, Db, seg, pp = (x[split] for x in (ta, tb, qa, qb, Da, Db, seg, pp))
+            tm, qm = (ta + tb) / 2, (qa + qb) / 2
+            Am, Bm = self._capsules_world(qm)
+            Dm = self._entries(Am, Bm, np.arange(len(tm)), pp, state["min"])
+            note(tm, seg, pp, Dm)
+            ta, tb = np.r_[ta, tm], np.r_[tm, tb]
+            qa, qb = np.r_[qa, qm], np.r_[qm, qb]
+            Da, Db = np.r_[Da, Dm], np.r_[Dm, Db]
+            seg, pp = np.r_[seg, seg], np.r_[pp, pp]
 
     # one configuration, with coal ----------------------------------------------------------------
     def geometry_model(self) -> tuple[pin.GeometryModel, list[tuple[str, str]]]:
