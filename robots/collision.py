@@ -46,7 +46,7 @@ import defusedxml.ElementTree as DET
 import numpy as np
 import pinocchio as pin
 
-from core.errors import InputError
+from core.errors import InputError, TooLarge
 from robots.geometry import ROBOT_GEOMETRY, Capsule
 from robots.model import Robot
 
@@ -54,6 +54,12 @@ MOTION_TOLERANCE = 1e-7
 """[m] A segment whose motion bound is below this and whose ends are clear counts as clear."""
 MAX_LEVELS = 60
 """Most halvings of one returned segment (2^-60 of its motion: far below ``MOTION_TOLERANCE``)."""
+MAX_CAPSULES = 64
+"""Most collision primitives of an inline URDF (its self pairs grow with the square)."""
+CHUNK_ENTRIES = 200_000
+"""Most pair distances computed in one vectorized call (bounds the memory of a check)."""
+MAX_KEY_ENTRIES = 5_000_000
+"""Most (key point, pair) entries of one continuous check: points x pairs / KEY_STEP (TooLarge)."""
 KEY_STEP = 16
 """The continuous check first evaluates every KEY_STEP-th returned point, then refines."""
 SAMPLES_FOR_ALLOWED = 4000
@@ -253,6 +259,13 @@ def robot_collision(robot: Robot, urdf: str | None = None) -> RobotCollision:
         return _attach(robot.model, geometry.capsules if geometry else ())
     capsules, mesh_only = capsules_from_urdf(urdf)
     rc = _attach(robot.model, capsules)
+    if len(rc.links) > MAX_CAPSULES:
+        raise TooLarge(
+            f"the URDF has {len(rc.links)} collision primitives on the robot; at most "
+            f"{MAX_CAPSULES} are checked",
+            field=("robot", "urdf"),
+            extra={"limit_primitives": MAX_CAPSULES},
+        )
     held = [m for m in mesh_only if robot.model.existFrame(m)]
     return RobotCollision(rc.links, rc.joints, rc.a, rc.b, rc.radius, tuple(held))
 
@@ -722,8 +735,14 @@ class CollisionChecker:
         if P == 0:
             return PathCheck(None, math.inf, None, 0)
         thr, W = self.threshold, self._weights
-        A, B = self._capsules_world(qs)
-        D = np.full((n, P), np.nan)
+        keys = np.unique(np.r_[np.arange(0, n, KEY_STEP), n - 1])
+        if len(keys) * P > MAX_KEY_ENTRIES:
+            raise TooLarge(
+                f"checking {n} points against {P} pairs is too large (at most "
+                f"{MAX_KEY_ENTRIES * KEY_STEP} points x pairs); use fewer points or obstacles",
+                field=("environment",),
+                extra={"limit_points_x_pairs": MAX_KEY_ENTRIES * KEY_STEP},
+            )
         C = np.vstack([np.zeros(qs.shape[1]), np.cumsum(np.abs(np.diff(qs, axis=0)), axis=0)])
         state = {"t": math.inf, "p": -1, "d": 0.0, "seg": -1, "min": math.inf, "min_t": 0.0,
                  "min_p": -1, "count": 0}  # fmt: skip
@@ -741,36 +760,38 @@ class CollisionChecker:
                 if t[b] < state["t"]:
                     state.update(t=float(t[b]), p=int(pp[b]), d=float(d[b]), seg=int(seg[b]))
 
-        def evaluate(rows: np.ndarray, pp: np.ndarray) -> None:
-            flat = np.unique(rows * P + pp)
-            rows, pp = flat // P, flat % P
-            todo = np.isnan(D[rows, pp])
-            rows, pp = rows[todo], pp[todo]
-            d = self._entries(A, B, rows, pp, state["min"])
-            D[rows, pp] = d
-            note(times[rows], np.maximum(rows - 1, 0), pp, d)
+        def evaluate(rows: np.ndarray, pp: np.ndarray) -> np.ndarray:
+            """Distances of pairs ``pp`` at returned points ``rows`` (chunked: bounded memory)."""
+            out = np.empty(len(rows))
+            for k in range(0, len(rows), CHUNK_ENTRIES):
+                r_, p_ = rows[k : k + CHUNK_ENTRIES], pp[k : k + CHUNK_ENTRIES]
+                used = np.unique(r_)
+                A, B = self._capsules_world(qs[used])
+                d = self._entries(A, B, np.searchsorted(used, r_), p_, state["min"])
+                out[k : k + len(d)] = d
+                note(times[r_], np.maximum(r_ - 1, 0), p_, d)
+            return out
 
-        keys = np.unique(np.r_[np.arange(0, n, KEY_STEP), n - 1])
-        evaluate(np.repeat(keys, P), np.tile(np.arange(P), len(keys)))
+        DK = evaluate(np.repeat(keys, P), np.tile(np.arange(P), len(keys))).reshape(len(keys), P)
         ii, jj = np.repeat(keys[:-1], P), np.repeat(keys[1:], P)
         pp = np.tile(np.arange(P), len(keys) - 1)
-        segments: list[tuple[np.ndarray, np.ndarray]] = []
+        Di, Dj = DK[:-1].reshape(-1), DK[1:].reshape(-1)
+        segments: list[tuple[np.ndarray, ...]] = []
         while len(ii):
-            Di, Dj = D[ii, pp], D[jj, pp]
             lower = (Di + Dj - np.einsum("kd,kd->k", C[jj] - C[ii], W[pp])) / 2
             need_c = (lower < thr[pp]) & (Di >= thr[pp]) & (times[ii] < state["t"])
             need = need_c | (lower < state["min"])
             multi = jj - ii > 1
             one = need_c & ~multi
-            segments.append((ii[one], pp[one]))
+            segments.append((ii[one], pp[one], Di[one], Dj[one]))
             split = need & multi
-            ii, jj, pp = ii[split], jj[split], pp[split]
+            ii, jj, pp, Di, Dj = ii[split], jj[split], pp[split], Di[split], Dj[split]
             mm = (ii + jj) // 2
-            evaluate(mm, pp)
+            Dm = evaluate(mm, pp)
             ii, jj, pp = np.r_[ii, mm], np.r_[mm, jj], np.r_[pp, pp]
-        seg = np.concatenate([s_ for s_, _ in segments]).astype(int)
-        pp = np.concatenate([p_ for _, p_ in segments]).astype(int)
-        self._refine_segments(times, qs, D, seg, pp, note, state)
+            Di, Dj = np.r_[Di, Dm], np.r_[Dm, Dj]
+        seg, pp, Da, Db = (np.concatenate([x[k] for x in segments]) for k in range(4))
+        self._refine_segments(times, qs, seg.astype(int), pp.astype(int), Da, Db, note, state)
         contact = None
         if state["p"] >= 0:
             contact = Contact(state["t"], self.pair_names[state["p"]], state["d"], state["seg"])
@@ -781,16 +802,16 @@ class CollisionChecker:
         self,
         times: np.ndarray,
         qs: np.ndarray,
-        D: np.ndarray,
         seg: np.ndarray,
         pp: np.ndarray,
+        Da: np.ndarray,
+        Db: np.ndarray,
         note: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None],
         state: dict[str, Any],
     ) -> None:
         """Split single segments (``seg``, pair ``pp``) at joint midpoints until each is clear or
         its contact is located (``MOTION_TOLERANCE``)."""
         ta, tb, qa, qb = times[seg], times[seg + 1], qs[seg], qs[seg + 1]
-        Da, Db = D[seg, pp], D[seg + 1, pp]
         thr, W = self.threshold, self._weights
         for _ in range(MAX_LEVELS):
             keep = ta < state["t"]
@@ -809,8 +830,12 @@ class CollisionChecker:
             split = need & ~tiny
             ta, tb, qa, qb, Da, Db, seg, pp = (x[split] for x in (ta, tb, qa, qb, Da, Db, seg, pp))
             tm, qm = (ta + tb) / 2, (qa + qb) / 2
-            Am, Bm = self._capsules_world(qm)
-            Dm = self._entries(Am, Bm, np.arange(len(tm)), pp, state["min"])
+            Dm = np.empty(len(tm))
+            step = max(1, CHUNK_ENTRIES // max(len(self.geometry.links), 1))
+            for k in range(0, len(tm), step):  # chunks: bounded memory
+                Am, Bm = self._capsules_world(qm[k : k + step])
+                idx = np.arange(len(Am))
+                Dm[k : k + step] = self._entries(Am, Bm, idx, pp[k : k + step], state["min"])
             note(tm, seg, pp, Dm)
             ta, tb = np.r_[ta, tm], np.r_[tm, tb]
             qa, qb = np.r_[qa, qm], np.r_[qm, qb]
@@ -922,7 +947,10 @@ def allowed_self_pairs(
         lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
         lo, hi = np.maximum(lo, -math.pi), np.minimum(hi, math.pi)
         qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, robot.dof))
-        touch = checker.distances(qs) < 0
+        rows = max(1, CHUNK_ENTRIES // checker.n_pairs)
+        touch = np.vstack(
+            [checker.distances(qs[k : k + rows]) < 0 for k in range(0, samples, rows)]
+        )
         by_links: dict[frozenset[str], np.ndarray] = {}
         for p, name in enumerate(
             checker.pair_names

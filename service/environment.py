@@ -181,7 +181,13 @@ def guard(
     return Guarded(prefix, diag, err, fraction)
 
 
-def guard_cartesian(task: Any, result: Any, env: Environment | None, urdf: str | None) -> Any:
+def guard_cartesian(
+    task: Any,
+    result: Any,
+    env: Environment | None,
+    urdf: str | None,
+    field: tuple[str | int, ...] = ("environment",),
+) -> Any:
     """``guard`` for a ``CartesianResult``: ``s`` from the tool's projection on the line; with
     ``allow_partial`` the result's trajectory, ``fraction`` and ``failure`` are replaced."""
     robot = task.robot
@@ -196,7 +202,9 @@ def guard_cartesian(task: Any, result: Any, env: Environment | None, urdf: str |
         q = np.array([np.interp(t, traj.times, traj.positions[:, j]) for j in range(robot.dof)])
         return float(np.clip((robot.fk(q)[:3, 3] - p0) @ axis / length2, 0.0, 1.0))
 
-    g = guard(robot, env, traj, urdf=urdf, allow_partial=bool(task.allow_partial), s_at=s_at)
+    g = guard(
+        robot, env, traj, urdf=urdf, allow_partial=bool(task.allow_partial), s_at=s_at, field=field
+    )
     diagnostics = {**result.diagnostics, **g.diagnostics}
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)

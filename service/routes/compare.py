@@ -52,8 +52,9 @@ def compare(
         try:
             result, elapsed_ms = cartesian_convert.run(task, method, settings.max_points)
             result = environment.guard_cartesian(
-                task, result, body.task.environment, environment.inline_urdf(body.task.robot)
-            )
+                task, result, body.task.environment, environment.inline_urdf(body.task.robot),
+                field=("task", "environment"),
+            )  # fmt: skip
         except PlanningError as err:
             _, problem = planning_error_body(err)
             elapsed = (time.perf_counter() - started) * 1e3
