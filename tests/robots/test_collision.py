@@ -356,3 +356,35 @@ def test_branch_and_bound_check_equals_exhaustive_references(seed: int) -> None:
     assert result.contact.time == pytest.approx(first, abs=3e-3), (seed, result.contact)
     if bad.any():
         assert result.contact.time <= times[int(np.argmax(bad))] + 1e-12
+
+
+def test_damper_inputs_predict_the_distance_rate() -> None:
+    """n . (J_p dq) equals the finite-difference change of the pair's distance (obstacle and self
+    pairs), so the velocity-damper rows built from them constrain the right quantity."""
+    from robots.collision import damper_inputs
+
+    robot = registry.get("panda")
+    geometry, allowed = robot_setup(robot)
+    # a generic configuration: at home some capsules are parallel (closest points not unique, the
+    # distance not differentiable)
+    q = robot.home + np.random.default_rng(10).normal(scale=0.1, size=7)
+    ball_at = robot.frame_pose(q, "panda_link5")[:3, 3] + [0.0, 0.2, 0.0]
+    ball = Obstacle("ball", "sphere", radius=0.05, T_base_obstacle=T(ball_at))
+    check = CollisionChecker(robot, geometry, [ball], allowed_self=allowed)
+    inputs = damper_inputs(check, q, d_influence=0.5)
+    assert len(inputs.pairs) > 0
+    assert any(check.pair_names[p][1] == "ball" for p in inputs.pairs)
+    d0 = check.distances(q[None])[0]
+    assert inputs.distances == pytest.approx(d0[inputs.pairs], abs=1e-6)
+    rng = np.random.default_rng(9)
+    for _ in range(5):
+        dq = rng.normal(size=robot.dof)
+        h = 1e-6
+        rate = (check.distances((q + h * dq)[None])[0] - d0)[inputs.pairs] / h
+        pred = np.einsum("pi,pij,j->p", inputs.normals, inputs.point_jacobians, dq)
+        assert pred == pytest.approx(rate, abs=1e-4)
+    rows = velocity_damper_rows(
+        inputs.distances, inputs.normals, inputs.point_jacobians,
+        dt=0.01, d_safe=0.01, d_influence=0.5,
+    )  # fmt: skip
+    assert rows.G.shape == (len(inputs.pairs), robot.dof)
