@@ -9,11 +9,10 @@ capsule, halfspace, in the robot's base frame.
 
 Two engines compute the same distances:
 
-* numpy closed forms, vectorized over configurations and pairs (``distances``): segment-segment
-  (capsule-capsule, capsule-sphere), endpoint signed distances (capsule-halfspace), and for boxes and
-  cylinders the minimum over the segment of the shape's signed distance function (convex along the
-  segment, so a golden-section search converges to it; 48 steps, < 1e-9 m). This is what the
-  continuous check runs on thousands of configurations.
+* numpy closed forms (``robots.geometry.distance``), vectorized over (configuration, pair) entries
+  (``distances``): segment-segment (capsule-capsule, capsule-sphere), endpoint signed distances
+  (capsule-halfspace), and for boxes and cylinders the minimum over the segment of the shape's signed
+  distance function. This is what the continuous check runs on thousands of configurations.
 * pinocchio's ``GeometryModel`` with coal (``closest_pairs``): one configuration, with witness points,
   for ``POST /distance``; tests check the two engines agree.
 
@@ -21,12 +20,13 @@ Continuous check (``CollisionChecker.check_path``): joints move linearly between
 points. Any point of capsule ``g`` moves by at most ``sum_k L_kg |dq_k|`` over a joint step ``dq``, where
 ``L_kg`` bounds the distance of the capsule from joint ``k``'s axis over all configurations (link
 lengths from joint ``k`` to the capsule plus its extent; 1 for prismatic joints). A pair's distance is
-1-Lipschitz in that motion, so over a segment with end distances ``d_a``, ``d_b`` and motion bound
-``B`` the distance never falls below ``(d_a + d_b - B) / 2``: when that is at least the threshold
-(``clearance`` for obstacles, 0 for self pairs) the segment is safe, otherwise it is split at its
-joint midpoint and both halves are checked, all unresolved segments of one level at once. A segment
-whose bound falls below ``MOTION_TOLERANCE`` with both ends clear counts as clear. The first contact
-is the earliest configuration found below the threshold (located to within that tolerance).
+1-Lipschitz in that motion, so over an interval with end distances ``d_i``, ``d_j`` and motion bound
+``B`` (summed over the interval's joint travel) the distance never falls below ``(d_i + d_j - B) / 2``.
+Branch and bound on (interval, pair) from every ``KEY_STEP``-th point: intervals are split while that
+bound is below the threshold (``clearance`` for obstacles, 0 for self pairs) or below the smallest
+distance found so far, single segments at their joint midpoint. A segment whose bound falls below
+``MOTION_TOLERANCE`` with both ends clear counts as clear. The first contact is the earliest
+configuration found below the threshold (located to within that tolerance).
 
 The base link stands on its mount: geometry fixed to the model's root is checked for self-collision
 only, never against obstacles.
@@ -36,18 +36,19 @@ from __future__ import annotations
 
 import itertools
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import coal
-import defusedxml.ElementTree as DET
 import numpy as np
 import pinocchio as pin
 
-from core.errors import InputError, TooLarge
+from core.errors import TooLarge
 from robots.geometry import ROBOT_GEOMETRY, Capsule
+from robots.geometry.distance import sdf_box, sdf_cylinder, segment_sdf_min, segment_segment
+from robots.geometry.joints import JointPlacements
+from robots.geometry.urdf import capsules_from_urdf
 from robots.model import Robot
 
 MOTION_TOLERANCE = 1e-7
@@ -65,8 +66,6 @@ KEY_STEP = 16
 SAMPLES_FOR_ALLOWED = 4000
 """Random configurations that decide which self pairs never touch (``allowed_self_collisions``)."""
 SHAPES = ("box", "sphere", "cylinder", "capsule", "halfspace")
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
-_GOLDEN_STEPS = 48
 
 
 @dataclass(frozen=True)
@@ -170,88 +169,6 @@ def _attach(model: pin.Model, capsules: Sequence[Capsule]) -> RobotCollision:
     )
 
 
-def _origin_rpy(el: ET.Element | None) -> pin.SE3:
-    if el is None:
-        return pin.SE3.Identity()
-    xyz = [float(v) for v in (el.get("xyz") or "0 0 0").split()]
-    rpy = [float(v) for v in (el.get("rpy") or "0 0 0").split()]
-    if len(xyz) != 3 or len(rpy) != 3 or not all(map(math.isfinite, xyz + rpy)):
-        raise InputError("a <collision> origin needs 3 finite xyz and rpy", field=("robot", "urdf"))
-    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(xyz))
-
-
-def capsules_from_urdf(urdf: str) -> tuple[list[Capsule], list[str]]:
-    """``<collision>`` primitives of a client URDF as capsules, and the mesh-only links.
-
-    sphere: exact; cylinder (radius r, length l along z): the capsule of radius r over the axis
-    shortened by r at each end when l > 2r, else the sphere around it; box: the capsule around its
-    longest axis that contains it. Both enclose the shape (conservative).
-    """
-    root = DET.fromstring(urdf.encode("utf-8"), forbid_dtd=True, forbid_entities=True)
-    capsules: list[Capsule] = []
-    mesh_only: list[str] = []
-    for link in root.findall("link"):
-        name = link.get("name") or ""
-        found_primitive = found_mesh = False
-        for col in link.findall("collision"):
-            geo = col.find("geometry")
-            if geo is None:
-                continue
-            M = _origin_rpy(col.find("origin"))
-            for shape in geo:
-                cap = _shape_capsule(shape)
-                if cap is None:
-                    found_mesh = found_mesh or shape.tag == "mesh"
-                    continue
-                ra, rb, r = cap
-                capsules.append(Capsule(name, tuple(M.act(ra)), tuple(M.act(rb)), r))  # type: ignore[arg-type]
-                found_primitive = True
-        if found_mesh and not found_primitive:
-            mesh_only.append(name)
-    return capsules, mesh_only
-
-
-def _positive(el: ET.Element, attr: str) -> float:
-    try:
-        v = float(el.get(attr, "nan"))
-    except ValueError:
-        v = math.nan
-    if not (math.isfinite(v) and 0 < v <= 1e3):
-        raise InputError(
-            f"a <collision> {el.tag} needs {attr} in (0, 1000] m", field=("robot", "urdf")
-        )
-    return v
-
-
-def _shape_capsule(shape: ET.Element) -> tuple[np.ndarray, np.ndarray, float] | None:
-    o = np.zeros(3)
-    if shape.tag == "sphere":
-        return o, o, _positive(shape, "radius")
-    if shape.tag == "cylinder":
-        r, h = _positive(shape, "radius"), _positive(shape, "length")
-        if h > 2 * r:
-            e = np.array([0.0, 0.0, h / 2 - r])
-            return -e, e, math.hypot(r, r)  # covers the rim: distance sqrt(r^2 + r^2) from the end
-        return o, o, math.hypot(r, h / 2)
-    if shape.tag == "box":
-        try:
-            size = np.array([float(v) for v in (shape.get("size") or "").split()])
-        except ValueError:
-            size = np.array([])
-        if size.shape != (3,) or not np.all(np.isfinite(size) & (size > 0) & (size <= 1e3)):
-            raise InputError(
-                "a <collision> box needs 3 sizes in (0, 1000] m", field=("robot", "urdf")
-            )
-        k = int(np.argmax(size))
-        others = np.delete(size, k) / 2
-        r = float(np.hypot(*others))
-        e = np.zeros(3)
-        e[k] = max(size[k] / 2 - r, 0.0)
-        r = max(r, float(np.linalg.norm(size / 2))) if e[k] == 0 else math.hypot(r, r)
-        return -e, e, r
-    return None
-
-
 def robot_collision(robot: Robot, urdf: str | None = None) -> RobotCollision:
     """The capsules of a shipped robot (``robots.geometry``) or of an inline URDF's primitives."""
     if urdf is None:
@@ -268,138 +185,6 @@ def robot_collision(robot: Robot, urdf: str | None = None) -> RobotCollision:
         )
     held = [m for m in mesh_only if robot.model.existFrame(m)]
     return RobotCollision(rc.links, rc.joints, rc.a, rc.b, rc.radius, tuple(held))
-
-
-# --- batch forward kinematics of every joint ------------------------------------------------------
-@dataclass(frozen=True)
-class _Joints:
-    """The serial chain's joint placements, for all joints at once (root first)."""
-
-    parents: np.ndarray
-    R: np.ndarray  # (J, 3, 3) joint placement rotation in its parent joint
-    p: np.ndarray  # (J, 3)
-    axis: np.ndarray  # (J, 3)
-    revolute: np.ndarray  # (J,)
-    q_index: np.ndarray  # (J,)
-
-    @classmethod
-    def from_model(cls, model: pin.Model) -> _Joints:
-        R, p, axis, rev, qi = [], [], [], [], []
-        for j in range(1, model.njoints):
-            jm = model.joints[j]
-            jd = jm.createData()
-            jm.calc(jd, pin.neutral(model))
-            s = np.asarray(jd.S, dtype=float).reshape(6)
-            is_rev = bool(np.linalg.norm(s[3:]) > 0.5)
-            axis.append(s[3:] if is_rev else s[:3])
-            rev.append(is_rev)
-            R.append(model.jointPlacements[j].rotation)
-            p.append(model.jointPlacements[j].translation)
-            qi.append(jm.idx_q)
-        return cls(
-            np.array(model.parents[1:], dtype=int),
-            np.reshape(R, (-1, 3, 3)),
-            np.reshape(p, (-1, 3)),
-            np.reshape(axis, (-1, 3)),
-            np.array(rev, dtype=bool),
-            np.array(qi, dtype=int),
-        )
-
-    def placements(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World rotations ``(J+1, N, 3, 3)`` and origins ``(J+1, N, 3)`` of every joint (index 0:
-        the root) for each row of ``qs`` ``(N, nq)``."""
-        n, J = qs.shape[0], len(self.parents)
-        Rw = np.empty((J + 1, n, 3, 3))
-        pw = np.empty((J + 1, n, 3))
-        Rw[0], pw[0] = np.eye(3), 0.0
-        for k in range(J):
-            par = self.parents[k]
-            flat = Rw[par].reshape(3 * n, 3)  # rows of every R: one BLAS product per constant
-            Rp = flat @ self.R[k]
-            pw[k + 1] = pw[par] + (flat @ self.p[k]).reshape(n, 3)
-            x = qs[:, self.q_index[k]]
-            a = self.axis[k]
-            if self.revolute[k]:
-                K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-                # Rp Rot(x) = Rp + sin(x) Rp K + (1 - cos(x)) Rp K^2 (Rodrigues)
-                s_ = np.repeat(np.sin(x), 3)[:, None]
-                c_ = np.repeat(1.0 - np.cos(x), 3)[:, None]
-                Rw[k + 1] = (Rp + s_ * (Rp @ K) + c_ * (Rp @ (K @ K))).reshape(n, 3, 3)
-            else:
-                Rw[k + 1] = Rp.reshape(n, 3, 3)
-                pw[k + 1] += (Rp @ a).reshape(n, 3) * x[:, None]
-        return Rw, pw
-
-
-# --- numpy distances -----------------------------------------------------------------------------
-def segment_segment(
-    a1: np.ndarray, b1: np.ndarray, a2: np.ndarray, b2: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closest points of segments ``a1-b1`` and ``a2-b2`` (broadcast ``(..., 3)``): (distance, p1, p2).
-
-    Ericson, Real-Time Collision Detection, 5.1.9, vectorized; degenerate segments (points) included.
-    """
-    d1, d2, r = b1 - a1, b2 - a2, a1 - a2
-    a = np.einsum("...i,...i", d1, d1)
-    e = np.einsum("...i,...i", d2, d2)
-    f = np.einsum("...i,...i", d2, r)
-    c = np.einsum("...i,...i", d1, r)
-    b = np.einsum("...i,...i", d1, d2)
-    eps = 1e-18
-    denom = a * e - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(
-            denom > eps * np.maximum(a * e, eps), np.clip((b * f - c * e) / denom, 0, 1), 0.0
-        )
-        t = np.where(e > eps, (b * s + f) / np.where(e > eps, e, 1.0), 0.0)
-        s_lo = np.where(a > eps, np.clip(-c / np.where(a > eps, a, 1.0), 0, 1), 0.0)
-        s_hi = np.where(a > eps, np.clip((b - c) / np.where(a > eps, a, 1.0), 0, 1), 0.0)
-    s = np.where((t < 0) | (e <= eps), s_lo, np.where(t > 1, s_hi, s))
-    t = np.clip(t, 0, 1)
-    p1 = a1 + s[..., None] * d1
-    p2 = a2 + t[..., None] * d2
-    return np.linalg.norm(p1 - p2, axis=-1), p1, p2
-
-
-def _sdf_box(x: np.ndarray, half: np.ndarray) -> np.ndarray:
-    q = np.abs(x) - half
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=-1)
-    return outside + np.minimum(q.max(axis=-1), 0.0)
-
-
-def _sdf_cylinder(x: np.ndarray, radius: np.ndarray, half_length: np.ndarray) -> np.ndarray:
-    q = np.stack(
-        [np.linalg.norm(x[..., :2], axis=-1) - radius, np.abs(x[..., 2]) - half_length], axis=-1
-    )
-    return np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0)
-
-
-def segment_sdf_min(
-    a: np.ndarray, b: np.ndarray, sdf: Callable[[np.ndarray], np.ndarray]
-) -> np.ndarray:
-    """min over the segment ``a-b`` (..., 3) of a convex signed distance function ``sdf(x)``
-    (golden-section search, vectorized)."""
-    lo = np.zeros(a.shape[:-1])
-    hi = np.ones(a.shape[:-1])
-    d = b - a
-
-    def f(t: np.ndarray) -> np.ndarray:
-        return sdf(a + t[..., None] * d)
-
-    x1 = hi - _GOLDEN * (hi - lo)
-    x2 = lo + _GOLDEN * (hi - lo)
-    f1, f2 = f(x1), f(x2)
-    for _ in range(_GOLDEN_STEPS):
-        left = f1 < f2  # the minimum lies in [lo, x2]
-        hi = np.where(left, x2, hi)
-        lo = np.where(left, lo, x1)
-        x1n = np.where(left, hi - _GOLDEN * (hi - lo), x2)
-        x2n = np.where(left, x1, lo + _GOLDEN * (hi - lo))
-        fn = f(np.where(left, x1n, x2n))
-        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
-        x1, x2 = x1n, x2n
-    ends = np.minimum(f(np.zeros_like(lo)), f(np.ones_like(lo)))
-    return np.minimum(np.minimum(f1, f2), ends)
 
 
 class CollisionChecker:
@@ -427,7 +212,7 @@ class CollisionChecker:
         allowed_self: frozenset[frozenset[str]] = frozenset(),
     ) -> None:
         self.robot, self.geometry, self.obstacles = robot, geometry, tuple(obstacles)
-        self._joints = _Joints.from_model(robot.model)
+        self._joints = JointPlacements.from_model(robot.model)
         self._T_base_world = robot.chain.T_base_world
         skip = {frozenset(p) for p in allowed} | set(allowed_self)
         g = geometry
@@ -453,7 +238,6 @@ class CollisionChecker:
             [clearance] * len(self._obs_pairs) + [0.0] * len(self._self_pairs)
         )
         self._weights = self._motion_weights()
-        self._prepare_obstacles()
         self._prepare_entries()
 
     @property
@@ -500,12 +284,6 @@ class CollisionChecker:
         return out
 
     # obstacles ---------------------------------------------------------------------------------
-    def _prepare_obstacles(self) -> None:
-        obs = self.obstacles
-        self._obs_T_inv = np.array([np.linalg.inv(o.T_base_obstacle) for o in obs]).reshape(
-            -1, 4, 4
-        )
-
     def _capsules_world(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Capsule ends in the base frame: ``(N, G, 3)`` twice."""
         Rw, pw = self._joints.placements(qs)
@@ -526,95 +304,18 @@ class CollisionChecker:
 
     def distances(self, qs: np.ndarray) -> np.ndarray:
         """Signed distances ``(N, P)`` [m] of every checked pair (``pair_names`` order) for each row of
-        ``qs`` ``(N, dof)``; negative: penetration."""
-        return self._distances(qs, math.inf)[0]
-
-    def _distances(self, qs: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
-        """``distances`` where a box or cylinder pair whose bounding-sphere lower bound is at least
-        ``cutoff`` [m] keeps that bound: entries below ``cutoff`` are exact, the others are lower
-        bounds >= ``cutoff``; the mask (N, P) says which entries are exact."""
+        ``qs`` ``(N, dof)``; negative: penetration. Exact (no bounds), in chunks of bounded memory."""
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
-        n = qs.shape[0]
-        out = np.empty((n, self.n_pairs))
-        exact = np.ones((n, self.n_pairs), dtype=bool)
-        if self.n_pairs == 0:
-            return out, exact
-        A, B = self._capsules_world(qs)
-        rad = self.geometry.radius
-        if self._obs_pairs:
-            ci = np.array([i for i, _ in self._obs_pairs])
-            ok = np.array([k for _, k in self._obs_pairs])
-            for shape in SHAPES:
-                sel = np.array([self.obstacles[k].shape == shape for k in ok])
-                if not sel.any():
-                    continue
-                idx = np.flatnonzero(sel)
-                d, ex = self._obstacle_distance(
-                    shape, A[:, ci[idx]], B[:, ci[idx]], ok[idx], rad[ci[idx]], cutoff
-                )
-                out[:, idx], exact[:, idx] = d, ex
-        if self._self_pairs:
-            off = len(self._obs_pairs)
-            i = np.array([p[0] for p in self._self_pairs])
-            j = np.array([p[1] for p in self._self_pairs])
-            d, _, _ = segment_segment(A[:, i], B[:, i], A[:, j], B[:, j])
-            out[:, off:] = d - rad[i] - rad[j]
-        return out, exact
+        n, P = qs.shape[0], self.n_pairs
+        out = np.empty((n, P))
+        rows = max(1, CHUNK_ENTRIES // max(P, 1))
+        for k in range(0, n, rows):
+            A, B = self._capsules_world(qs[k : k + rows])
+            m = len(A)
+            r, p = np.repeat(np.arange(m), P), np.tile(np.arange(P), m)
+            out[k : k + m] = self._entries(A, B, r, p).reshape(m, P)
+        return out
 
-    def _obstacle_distance(
-        self,
-        shape: str,
-        A: np.ndarray,
-        B: np.ndarray,
-        ok: np.ndarray,
-        rad: np.ndarray,
-        cutoff: float,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Distance from capsules ``A-B`` ``(N, m, 3)``, radii ``rad`` ``(m,)``, to obstacles ``ok``
-        ``(m,)`` of one shape, and which entries are exact (see ``_distances``)."""
-        obs = [self.obstacles[k] for k in ok]
-        exact = np.ones(A.shape[:2], dtype=bool)
-        if shape == "halfspace":
-            nrm = np.array([o.normal for o in obs])
-            off = np.array([o.offset for o in obs])
-            lowest = np.minimum((A * nrm).sum(axis=-1), (B * nrm).sum(axis=-1))
-            return lowest - off - rad, exact
-        a, b = np.empty_like(A), np.empty_like(B)
-        for k in np.unique(ok):  # one BLAS product per obstacle
-            cols = np.flatnonzero(ok == k)
-            Ti = self._obs_T_inv[k]
-            shape_ = (A.shape[0], len(cols), 3)
-            a[:, cols] = (A[:, cols].reshape(-1, 3) @ Ti[:3, :3].T + Ti[:3, 3]).reshape(shape_)
-            b[:, cols] = (B[:, cols].reshape(-1, 3) @ Ti[:3, :3].T + Ti[:3, 3]).reshape(shape_)
-        if shape in ("sphere", "capsule"):
-            h = np.array([[0.0, 0.0, o.length / 2 if shape == "capsule" else 0.0] for o in obs])
-            d, _, _ = segment_segment(a, b, -h, h)
-            return d - np.array([o.radius for o in obs]) - rad, exact
-        if shape == "box":
-            par = np.array([o.size for o in obs]) / 2  # half extents
-            bound = np.linalg.norm(par, axis=1)
-        else:
-            par = np.array([[o.radius, o.length / 2, 0.0] for o in obs])
-            bound = np.hypot(par[:, 0], par[:, 1])
-        # bounding spheres: the obstacle's about its centre, the capsule's about its midpoint
-        lower = (
-            np.linalg.norm((a + b) / 2, axis=-1) - np.linalg.norm(b - a, axis=-1) / 2 - bound - rad
-        )
-        exact = lower < cutoff
-        out = lower.copy()
-        rows, cols = np.nonzero(exact)
-        if len(rows):
-            pe = par[cols]
-            if shape == "box":
-                d = segment_sdf_min(a[rows, cols], b[rows, cols], lambda x: _sdf_box(x, pe))
-            else:
-                d = segment_sdf_min(
-                    a[rows, cols], b[rows, cols], lambda x: _sdf_cylinder(x, pe[:, 0], pe[:, 1])
-                )
-            out[rows, cols] = d - rad[cols]
-        return out, exact
-
-    # continuous check --------------------------------------------------------------------------
     # per-entry distances ---------------------------------------------------------------------
     def _prepare_entries(self) -> None:
         """Per-pair and per-obstacle arrays for ``_entries``."""
@@ -623,6 +324,9 @@ class CollisionChecker:
         self._si = np.array([i for i, _ in self._self_pairs], dtype=int)
         self._sj = np.array([j for _, j in self._self_pairs], dtype=int)
         obs = self.obstacles
+        self._obs_T_inv = np.array([np.linalg.inv(o.T_base_obstacle) for o in obs]).reshape(
+            -1, 4, 4
+        )
         self._kind = np.array([SHAPES.index(o.shape) for o in obs], dtype=int)
         self._radius = np.array([o.radius for o in obs])
         self._half_length = np.array([o.length / 2 if o.shape == "capsule" else 0.0 for o in obs])
@@ -643,15 +347,16 @@ class CollisionChecker:
         B: np.ndarray,
         r: np.ndarray,
         p: np.ndarray,
-        floor: float = math.inf,
+        floor: float | None = None,
     ) -> np.ndarray:
         """Distances [m] of pairs ``p`` (K,) at configurations ``r`` (K,), rows of the capsule ends
         ``A``, ``B`` (n, G, 3): the same closed forms as ``distances``, one vector per entry list.
 
-        Box and cylinder entries whose lower bound (distance to the obstacle's bounding sphere) is
-        at least ``max(threshold, min(floor, the smallest other distance of the call))`` keep that
-        bound: they can be neither a contact nor the smallest distance, and a lower bound keeps every
-        interval test of the continuous check valid."""
+        With a ``floor`` [m] (the smallest distance known), box and cylinder entries whose lower
+        bound (distance to the obstacle's bounding sphere) is at least ``max(threshold, min(floor,
+        the smallest other distance of the call))`` keep that bound: they can be neither a contact
+        nor the smallest distance, and a lower bound keeps every interval test of the continuous
+        check valid. Without one, every entry is exact."""
         out = np.empty(len(r))
         rad = self.geometry.radius
         n_obs = len(self._obs_pairs)
@@ -683,7 +388,7 @@ class CollisionChecker:
             m = k_rest == SHAPES.index(shape)
             if not m.any():
                 continue
-            if shape in ("box", "cylinder"):
+            if shape in ("box", "cylinder") and floor is not None:
                 done = np.ones(len(out), dtype=bool)
                 boxy = np.isin(k_rest, (SHAPES.index("box"), SHAPES.index("cylinder")))
                 done[e[rest[boxy]]] = False  # every other entry is filled by now
@@ -707,11 +412,11 @@ class CollisionChecker:
                 d = d - self._radius[o]
             elif shape == "box":
                 half = self._half[o]
-                d = segment_sdf_min(al[m], bl[m], lambda x, half=half: _sdf_box(x, half))
+                d = segment_sdf_min(al[m], bl[m], lambda x, half=half: sdf_box(x, half))
             else:
                 cyl = self._cyl[o]
                 d = segment_sdf_min(
-                    al[m], bl[m], lambda x, cyl=cyl: _sdf_cylinder(x, cyl[:, 0], cyl[:, 1])
+                    al[m], bl[m], lambda x, cyl=cyl: sdf_cylinder(x, cyl[:, 0], cyl[:, 1])
                 )
             out[e[rest[m]]] = d - rad[c_rest[m]]
         return out

@@ -13,12 +13,13 @@ from robots.collision import (
     CollisionChecker,
     Obstacle,
     allowed_self_pairs,
-    capsules_from_urdf,
+    damper_inputs,
     robot_collision,
     robot_setup,
-    segment_segment,
 )
 from robots.geometry import ROBOT_GEOMETRY
+from robots.geometry.distance import segment_segment
+from robots.geometry.urdf import capsules_from_urdf
 
 ROBOTS = ["planar_2r", "puma560", "ur5", "panda"]
 
@@ -361,8 +362,6 @@ def test_branch_and_bound_check_equals_exhaustive_references(seed: int) -> None:
 def test_damper_inputs_predict_the_distance_rate() -> None:
     """n . (J_p dq) equals the finite-difference change of the pair's distance (obstacle and self
     pairs), so the velocity-damper rows built from them constrain the right quantity."""
-    from robots.collision import damper_inputs
-
     robot = registry.get("panda")
     geometry, allowed = robot_setup(robot)
     # a generic configuration: at home some capsules are parallel (closest points not unique, the
