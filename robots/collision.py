@@ -65,6 +65,8 @@ KEY_STEP = 16
 """The continuous check first evaluates every KEY_STEP-th returned point, then refines."""
 SAMPLES_FOR_ALLOWED = 4000
 """Random configurations that decide which self pairs never touch (``allowed_self_collisions``)."""
+MAX_ALLOWED_WORK = 2_000_000
+"""Most pair distances spent on that decision for one robot (inline URDFs with many primitives)."""
 SHAPES = ("box", "sphere", "cylinder", "capsule", "halfspace")
 
 
@@ -637,7 +639,8 @@ def allowed_self_pairs(
     robot: Robot, geometry: RobotCollision, samples: int = SAMPLES_FOR_ALLOWED, seed: int = 0
 ) -> frozenset[frozenset[str]]:
     """Link pairs never checked for self-collision: adjacent links (one joint apart, or the same
-    joint), pairs in contact in none of ``samples`` random configurations inside the limits (they
+    joint), pairs in contact in none of ``samples`` random configurations inside the limits
+    (fewer when samples x pairs would exceed ``MAX_ALLOWED_WORK``, at least 500) (they
     cannot touch), and pairs in contact in all of them (built into the arm: never a planning error)."""
     links = sorted(set(geometry.links))
     joint_of = {n: int(j) for n, j in zip(geometry.links, geometry.joints, strict=True)}
@@ -651,6 +654,7 @@ def allowed_self_pairs(
     if checker.n_pairs:
         lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
         lo, hi = np.maximum(lo, -math.pi), np.minimum(hi, math.pi)
+        samples = int(min(samples, max(500, MAX_ALLOWED_WORK // checker.n_pairs)))
         qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, robot.dof))
         rows = max(1, CHUNK_ENTRIES // checker.n_pairs)
         touch = np.vstack(

@@ -11,6 +11,7 @@ from fastapi.testclient import TestClient
 from robots import registry
 from robots.geometry import ROBOT_GEOMETRY
 from service.app import create_app
+from service.routes.collision import collision_description
 from service.schemas.common import Pose
 from tests.service.helpers import problem
 
@@ -354,3 +355,28 @@ def test_a_nearly_unit_normal_is_normalized(client) -> None:
 def test_distance_endpoint_errors(client) -> None:
     problem(client.post("/v1/robots/nope/distance", json={"positions": HOME}), 404, "unknown_robot")
     problem(client.post("/v1/robots/ur5/distance", json={"positions": [0.0]}), 422, "validation")
+
+
+def test_collision_description_for_the_robot_resource() -> None:
+    """What GET /v1/robots/{name} should add (the robots route belongs to the ik team)."""
+    doc = collision_description("panda")
+    assert len(doc["collision_geometry"]) == len(ROBOT_GEOMETRY["panda"].capsules)
+    first = doc["collision_geometry"][0]
+    assert first["link"] == "panda_link0" and first["radius"] == 0.06
+    pairs = doc["allowed_self_collisions"]
+    assert ["panda_link1", "panda_link2"] in pairs and ["panda_link5", "panda_link7"] in pairs
+    assert ["panda_link1", "panda_link7"] not in pairs
+
+
+def test_too_many_inline_collision_primitives_is_too_large(client) -> None:
+    spheres = "".join(
+        f'<collision><origin xyz="{0.01 * k} 0 0"/><geometry><sphere radius="0.01"/></geometry>'
+        "</collision>"
+        for k in range(65)
+    )
+    urdf = f"""<robot name="many"><link name="base"/><link name="l1">{spheres}</link>
+      <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+        <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint></robot>"""
+    body = {"robot": {"urdf": urdf, "tip_frame": "l1", "base_frame": "base"}, "positions": [0.0]}
+    err = problem(client.post("/v1/distance", json=body), 422, "too_large")
+    assert err["limit_primitives"] == 64
