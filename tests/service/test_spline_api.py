@@ -3,7 +3,6 @@ times, ROS rules, allocated times within limits, errors, a seeded random sweep, 
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Iterator
 from typing import Any
 
@@ -172,7 +171,7 @@ def test_infeasible_and_too_large(client: TestClient) -> None:
 
 
 def test_time_budget_exceeded() -> None:
-    settings = dataclasses.replace(Settings(), time_budget_s=1e-9)
+    settings = Settings(time_budget_s=1e-9)
     with TestClient(create_app(settings)) as tiny:
         problem(tiny.post(URL, json=spline()), 422, "time_budget_exceeded")
 

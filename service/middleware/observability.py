@@ -14,8 +14,8 @@ from typing import Any
 from starlette.routing import BaseRoute, compile_path
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service import metrics
-from service.logging_setup import REQUEST_ID, request_id_from
+from service.middleware import metrics
+from service.middleware.logging_setup import REQUEST_ID, request_id_from
 
 try:
     from fastapi.routing import iter_route_contexts
