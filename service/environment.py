@@ -239,3 +239,59 @@ def guard_request(body: Any, trajectory: Trajectory) -> Guarded:
         urdf=inline_urdf(body.robot),
         allow_partial=bool(getattr(body, "allow_partial", False)),
     )
+
+
+def guard_program(result: Any, robot: Robot, body: Any) -> Any:
+    """``guard`` for a motion program (``ProgramResult``): a contact names its ``segment`` and ``s``
+    within it (LIN: the tool's projection on the segment's line between its start and end; PTP and
+    CIRC: the share of the segment's time); with ``allow_partial`` the program up to the contact."""
+    traj = result.trajectory
+    segments = [s for s in result.segments if s.end_time > s.start_time]
+
+    def segment_at(t: float) -> Any:
+        before = [s for s in segments if s.start_time <= t + 1e-12]
+        return before[-1] if before else (segments[0] if segments else None)
+
+    def q_at(t: float) -> np.ndarray:
+        return np.array([np.interp(t, traj.times, traj.positions[:, j]) for j in range(robot.dof)])
+
+    def s_at(t: float) -> float | None:
+        seg = segment_at(t)
+        if seg is None:
+            return None
+        span = seg.end_time - seg.start_time
+        share = float(np.clip((t - seg.start_time) / span, 0.0, 1.0))
+        if seg.type != "lin":
+            return share
+        p0, p1 = robot.fk(q_at(seg.start_time))[:3, 3], robot.fk(q_at(seg.end_time))[:3, 3]
+        axis = p1 - p0
+        if float(axis @ axis) < 1e-18:
+            return share
+        return float(np.clip((robot.fk(q_at(t))[:3, 3] - p0) @ axis / (axis @ axis), 0.0, 1.0))
+
+    try:
+        g = guard(
+            robot,
+            body.environment,
+            traj,
+            urdf=inline_urdf(body.robot),
+            allow_partial=bool(body.allow_partial),
+            s_at=s_at,
+        )
+    except Collision as err:
+        seg = segment_at(float(err.extra["time_from_start"]))
+        err.extra["segment"] = None if seg is None else seg.index
+        raise
+    diagnostics = {**result.diagnostics, **g.diagnostics}
+    if g.failure is None:
+        return dataclasses.replace(result, diagnostics=diagnostics)
+    seg = segment_at(float(g.failure.extra["time_from_start"]))
+    g.failure.extra["segment"] = None if seg is None else seg.index
+    n = max(len(result.segments), 1)
+    return dataclasses.replace(
+        result,
+        trajectory=g.trajectory,
+        fraction=min(float(result.fraction), (0 if seg is None else seg.index) / n),
+        failure=g.failure,
+        diagnostics=diagnostics,
+    )

@@ -380,3 +380,35 @@ def test_too_many_inline_collision_primitives_is_too_large(client) -> None:
     body = {"robot": {"urdf": urdf, "tip_frame": "l1", "base_frame": "base"}, "positions": [0.0]}
     err = problem(client.post("/v1/distance", json=body), 422, "too_large")
     assert err["limit_primitives"] == 64
+
+
+def test_program_collision_names_its_segment_and_s(client) -> None:
+    T0 = UR5.fk(UR5.home)
+    T1, T2 = T0.copy(), T0.copy()
+    T1[:3, 3] += [0.0, 0.0, 0.1]  # first LIN: up, clear
+    T2[:3, 3] = T1[:3, 3] + [0.0, 0.3, 0.0]  # second LIN: sideways into the ball
+    center, R = T1[:3, 3] + [0.0, 0.21, 0.0], 0.03
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "segments": [
+            {"type": "lin", "goal": {"pose": Pose.from_matrix(T1).model_dump()}},
+            {"type": "lin", "goal": {"pose": Pose.from_matrix(T2).model_dump()}},
+        ],
+        "environment": {"obstacles": [ball("ball", center, R)]},
+    }
+    err = problem(client.post("/v1/trajectories/program", json=body), 422, "collision")
+    assert err["segment"] == 1 and err["links"] == ["wrist_3_link", "ball"]
+    a0, b0, r = tool_capsule(UR5.home)
+    lift = np.array([0.0, 0.0, 0.1])
+    offset = np.array([0.0, 0.3, 0.0])
+    s_star = first_touch_s(
+        lambda s: point_segment(center, a0 + lift + s * offset, b0 + lift + s * offset) - r - R
+    )
+    assert err["s"] == pytest.approx(s_star, abs=0.01)
+    body["allow_partial"] = True
+    doc = client.post("/v1/trajectories/program", json=body).json()
+    assert doc["diagnostics"]["failure"]["code"] == "collision"
+    assert doc["diagnostics"]["failure"]["segment"] == 1
+    a, b, r = tool_capsule(doc["points"][-1]["positions"])
+    assert point_segment(center, a, b) - r - R >= 0
