@@ -208,8 +208,8 @@ def _orjson_round_trip(client, url: str, body: dict) -> Callable[[], object]:
 def encoding_split(reps: int = 200) -> tuple[float, float]:
     """Median [s] of planning and of encoding (``convert.trajectory_response``) one 1000-sample
     quintic in-process, as the route does them."""
-    from core.point_to_point import PointToPoint, plan_joint
-    from service import convert
+    from core.joint.point_to_point import PointToPoint, plan_joint
+    from service.convert import joint as convert
 
     plan_t, enc_t = [], []
     for _ in range(reps):

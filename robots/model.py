@@ -53,6 +53,7 @@ class Robot:
             first joint from the tip whose holding lets EAIK solve the other six, else the last
             ``dof - task rows`` joints.
         sources: Where each kind of limit comes from (``"position"``, ``"velocity"``, ...).
+        jerk_limits: ``(dof,)`` [rad/s^3 or m/s^3], > 0, or ``None`` where the maker publishes none.
     """
 
     def __init__(
@@ -69,6 +70,7 @@ class Robot:
         closed_form_ik: ClosedFormIK | None = None,
         sources: Mapping[str, str] | None = None,
         redundant_joints: tuple[str, ...] | None = None,
+        jerk_limits: np.ndarray | None = None,
     ) -> None:
         if task_space not in TASK_SPACES:
             raise ValueError(f"task_space must be one of {TASK_SPACES}")
@@ -88,6 +90,7 @@ class Robot:
         vel = model.velocityLimit if velocity_limits is None else velocity_limits
         self._velocity = _ro(vel)
         self._acceleration = _ro(acceleration_limits)
+        self._jerk = None if jerk_limits is None else _ro(jerk_limits)
         home = np.zeros(model.nq) if home is None else home
         self._home = _ro(np.clip(home, self._limits[:, 0], self._limits[:, 1]))
         for arr, what in ((self._velocity, "velocity"), (self._acceleration, "acceleration")):
@@ -146,6 +149,11 @@ class Robot:
     def acceleration_limits(self) -> np.ndarray:
         """``(dof,)`` joint acceleration limits [rad/s^2 or m/s^2], > 0."""
         return self._acceleration
+
+    @property
+    def jerk_limits(self) -> np.ndarray | None:
+        """``(dof,)`` joint jerk limits [rad/s^3 or m/s^3], or ``None`` when not published."""
+        return self._jerk
 
     @property
     def home(self) -> np.ndarray:

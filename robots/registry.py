@@ -70,6 +70,7 @@ class RobotDescription:
     home: tuple[float, ...]
     sources: dict[str, str] = field(hash=False)
     link_lengths: tuple[float, float] | None = None
+    jerk_limits: tuple[float, ...] | None = None
 
 
 DESCRIPTIONS: dict[str, RobotDescription] = {
@@ -138,8 +139,11 @@ DESCRIPTIONS: dict[str, RobotDescription] = {
                 "position": "Franka Emika datasheet (robot and interface specifications)",
                 "velocity": "Franka Emika datasheet: 2.175 rad/s (joints 1-4), 2.61 rad/s (5-7)",
                 "acceleration": "Franka Emika datasheet: 15, 7.5, 10, 12.5, 15, 20, 20 rad/s^2",
+                "jerk": "Franka Control Interface documentation, 'Limits for Panda' "
+                "(frankaemika.github.io/docs/control_parameters.html): 7500 rad/s^3 per joint",
                 "home": "Franka's 'ready' pose",
             },
+            jerk_limits=(7500.0,) * 7,
         ),
     )
 }
@@ -180,6 +184,7 @@ def _build_shipped(name: str) -> Robot:
         name, model, base_frame=d.base_frame, tip_frame=d.tip_frame, task_space=d.task_space,
         acceleration_limits=np.array(d.acceleration_limits), home=np.array(d.home),
         closed_form_ik=closed_form, sources=d.sources,
+        jerk_limits=None if d.jerk_limits is None else np.array(d.jerk_limits),
     )  # fmt: skip
 
 

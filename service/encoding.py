@@ -70,6 +70,7 @@ def base_diagnostics(traj: Trajectory, method: str, compute_time_ms: float) -> d
         "compute_time_ms": compute_time_ms,
         "peak_velocity": traj.peak_velocity,
         "peak_acceleration": traj.peak_acceleration,
+        "peak_jerk": traj.peak_jerk,
         "warnings": [],
     }
 

@@ -75,6 +75,7 @@ def _detail(robot: Robot) -> RobotDetail:
             position=robot.position_limits.tolist(),
             velocity=robot.velocity_limits.tolist(),
             acceleration=robot.acceleration_limits.tolist(),
+            jerk=None if robot.jerk_limits is None else robot.jerk_limits.tolist(),
         ),
         home=robot.home.tolist(),
         limit_sources=dict(robot.sources),

@@ -34,6 +34,10 @@ class RobotLimits(BaseModel):
     acceleration: list[float] = Field(
         description="Acceleration limit per joint [rad/s^2 or m/s^2]."
     )
+    jerk: list[float] | None = Field(
+        default=None,
+        description="Jerk limit per joint [rad/s^3 or m/s^3]; null where the maker publishes none.",
+    )
 
 
 class IKInfo(BaseModel):

@@ -86,8 +86,8 @@ def test_path_rates_pseudo_inverse_equals_numpys() -> None:
 def test_sampled_trajectories_are_c_contiguous() -> None:
     """The encoder writes row views of C-contiguous arrays without copying them (a 100,000-point,
     64-joint response stays within its memory bound): sampling must hand it that layout."""
-    from core.point_to_point import PointToPoint, plan_joint
-    from core.splines import plan_spline
+    from core.joint.point_to_point import PointToPoint, plan_joint
+    from core.joint.splines import plan_spline
 
     q1 = np.linspace(-1.0, 1.0, 7)
     for kind in ("quintic", "cubic", "linear"):

@@ -8,10 +8,10 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from core.budget import Deadline
-from core.errors import InputError, JointLimit, JointRateLimit, TimeBudgetExceeded
+from core.errors import Infeasible, InputError, JointLimit, JointRateLimit, TimeBudgetExceeded
+from core.joint.profiles.polynomial import PolynomialProfile
+from core.joint.splines import BOUNDARIES, SplineProfile, allocate_times, plan_spline
 from core.limits import JointLimits
-from core.polynomials import PolynomialProfile
-from core.splines import BOUNDARIES, SplineProfile, allocate_times, plan_spline
 
 RNG_SEED = 4242
 
@@ -225,7 +225,7 @@ def test_the_deadline_stops_allocation() -> None:
 def test_sample_equals_three_evaluations_in_and_out_of_order() -> None:
     """``SplineProfile.sample`` (one interval search, blocked Horner) equals ``profile(t, order)``
     for every boundary condition, at unsorted times, knots and ends included, past one block."""
-    from core.splines import SAMPLE_BLOCK
+    from core.joint.splines import SAMPLE_BLOCK
 
     rng = np.random.default_rng(21)
     waypoints = np.cumsum(rng.uniform(-0.5, 0.5, (9, 3)), axis=0)
@@ -241,3 +241,12 @@ def test_sample_equals_three_evaluations_in_and_out_of_order() -> None:
             np.testing.assert_allclose(got, want, rtol=0, atol=atol)
         ends = (t == 0.0) | (t == knots[-1])
         np.testing.assert_array_equal(profile.sample(t)[0][ends], profile(t)[ends])  # pinned
+
+
+@pytest.mark.parametrize("speed", [1e-300, 1e-100, 1e-30])
+@pytest.mark.parametrize("boundary", BOUNDARIES)
+def test_a_vanishing_speed_limit_is_infeasible_not_an_overflow(speed: float, boundary: str) -> None:
+    # Issue 19 item 1: knot times from a 1e-300 rad/s limit overflowed to inf inside scipy.
+    limits = JointLimits(velocity=np.array([speed]), acceleration=np.array([10.0]))
+    with np.errstate(all="raise"), pytest.raises(Infeasible, match="more than 100000 s"):
+        plan_spline(np.array([[0.0], [0.5]]), boundary=boundary, limits=limits, samples=5)

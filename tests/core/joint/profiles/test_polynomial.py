@@ -1,27 +1,21 @@
-"""Point-to-point profiles: the notes' matrices, end conditions in physical units, time scaling,
-exact peaks, synchronization of the trapezoid, and the linear profile's declared velocity steps."""
+"""Cubic and quintic profiles: the notes' matrices, end conditions in physical units, time scaling,
+exact peaks (closed forms rest to rest, root search otherwise), batched durations, sampling."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from core.polynomials import (
-    CUBIC_MATRIX,
-    QUINTIC_MATRIX,
-    LinearProfile,
-    PolynomialProfile,
-    TrapezoidalProfile,
-    abs_peak_on_unit,
-    polyval,
-    unit_roots,
-)
-from core.timing import (
+from core.joint.durations import (
     CUBIC_PEAK_ACCELERATION,
     CUBIC_PEAK_VELOCITY,
     QUINTIC_PEAK_ACCELERATION,
     QUINTIC_PEAK_VELOCITY,
 )
+from core.joint.peaks import abs_peak_on_unit, polyder
+from core.joint.profiles.linear import LinearProfile
+from core.joint.profiles.polynomial import CUBIC_MATRIX, QUINTIC_MATRIX, PolynomialProfile
+from core.joint.profiles.trapezoidal import TrapezoidalProfile
 
 RNG_SEED = 20240402
 
@@ -117,11 +111,15 @@ def test_rest_to_rest_peaks_match_the_closed_forms() -> None:
             QUINTIC_PEAK_ACCELERATION,
         ),
     ):
-        vel, acc = prof.peaks()
+        vel, acc, _ = prof.peaks()
         np.testing.assert_allclose(vel, kv * dq / T, rtol=1e-12)
         np.testing.assert_allclose(acc, ka * dq / T**2, rtol=1e-12)
         dense = np.linspace(0, T, 200_001)
         np.testing.assert_allclose(np.abs(prof(dense, 1)).max(axis=0), vel, rtol=1e-9)
+        # The closed forms (REST_PEAKS) equal the general root search on the derivatives.
+        for k, got in enumerate(prof.peaks(), start=1):
+            found = abs_peak_on_unit(polyder(prof.coeffs, k)) / T**k
+            np.testing.assert_allclose(got, found, rtol=1e-12)
     assert QUINTIC_PEAK_VELOCITY == 1.875 and round(QUINTIC_PEAK_ACCELERATION, 4) == 5.7735
 
 
@@ -130,7 +128,7 @@ def test_exact_peaks_bound_dense_sampling_from_above() -> None:
     for _ in range(100):
         c = random_case(rng)
         prof = PolynomialProfile(c["q0"], c["q1"], c["T"], c["v0"], c["v1"], c["a0"], c["a1"])
-        vel, acc = prof.peaks()
+        vel, acc, _ = prof.peaks()
         t = np.linspace(0, c["T"], 20_001)
         dense_v, dense_a = np.abs(prof(t, 1)).max(axis=0), np.abs(prof(t, 2)).max(axis=0)
         assert np.all(dense_v <= vel * (1 + 1e-12) + 1e-12)
@@ -145,71 +143,11 @@ def test_batched_durations_equal_one_at_a_time() -> None:
     durations = np.geomspace(0.1, 10, 7)
     args = (c["q0"], c["q1"])
     bcs = (c["v0"], c["v1"], c["a0"], c["a1"])
-    vel, acc = PolynomialProfile(*args, durations[:, None], *bcs).peaks()
+    vel, acc, _ = PolynomialProfile(*args, durations[:, None], *bcs).peaks()
     for i, T in enumerate(durations):
-        v1, a1 = PolynomialProfile(*args, T, *bcs).peaks()
+        v1, a1, _ = PolynomialProfile(*args, T, *bcs).peaks()
         np.testing.assert_allclose(vel[i], v1, rtol=1e-12)
         np.testing.assert_allclose(acc[i], a1, rtol=1e-12)
-
-
-def test_unit_roots_agree_with_numpy() -> None:
-    rng = np.random.default_rng(RNG_SEED + 6)
-    coeffs = rng.normal(size=(4, 2000)) * rng.choice([1e-6, 1.0, 1e6], size=(4, 2000))
-    coeffs[0, :300] = 0.0  # some quadratics
-    roots = unit_roots(coeffs)
-    for k in range(coeffs.shape[1]):
-        c = coeffs[:, k]
-        expected = [
-            r.real for r in np.roots(c) if abs(r.imag) < 1e-12 and 1e-9 <= r.real <= 1 - 1e-9
-        ]
-        got = roots[:, k][~np.isnan(roots[:, k])]
-        for r in expected:
-            nearest = got[np.argmin(np.abs(got - r))]
-            residual = abs(polyval(c[:, None], np.array([nearest]))[0])
-            assert residual <= 1e-12 * (np.abs(c).sum()), (c, r, got)
-
-
-def test_abs_peak_on_unit_of_a_known_quartic() -> None:
-    # 30 s^2 (1 - s)^2 (the quintic's normalized velocity) peaks at 1.875 at s = 1/2.
-    c = np.array([30.0, -60.0, 30.0, 0.0, 0.0])[:, None]
-    assert abs(abs_peak_on_unit(c)[0] - 1.875) < 1e-14
-
-
-def test_linear_declares_its_velocity_steps() -> None:
-    q0, q1, T = np.array([0.0, 1.0]), np.array([2.0, -1.0]), 4.0
-    prof = LinearProfile(q0, q1, T)
-    t = np.linspace(0, T, 9)
-    v = prof(t, 1)
-    np.testing.assert_array_equal(v[0], 0.0)
-    np.testing.assert_array_equal(v[-1], 0.0)
-    np.testing.assert_allclose(v[1:-1], np.tile((q1 - q0) / T, (7, 1)))
-    np.testing.assert_array_equal(prof(t, 2), 0.0)
-    np.testing.assert_allclose(prof(t, 0), q0 + np.outer(t / T, q1 - q0))
-
-
-def test_trapezoid_is_synchronized_and_degrades_to_a_triangle() -> None:
-    q0, q1 = np.zeros(3), np.array([4.0, 0.5, -1.0])
-    amax = np.array([2.0, 2.0, 8.0])
-    T = 2.0 * np.sqrt(4.0 / 2.0)  # joint 0's triangle time
-    prof = TrapezoidalProfile(q0, q1, T, amax)
-    assert prof.ramp[0] == pytest.approx(T / 2)  # triangle: no cruise
-    assert np.all(prof.ramp[1:] < T / 2)  # the others cruise, slower
-    t = np.linspace(0, T, 10_001)
-    q = prof(t, 0)
-    np.testing.assert_allclose(q[-1], q1, atol=1e-12)
-    v = prof(t, 1)
-    np.testing.assert_allclose(np.abs(v).max(axis=0), prof.cruise, rtol=1e-3)
-    a = prof(t, 2)
-    np.testing.assert_allclose(np.abs(a).max(axis=0), amax)
-    # Cruise phase of joint 1: constant velocity.
-    mid = (t > prof.ramp[1] + 1e-9) & (t < T - prof.ramp[1] - 1e-9)
-    np.testing.assert_allclose(v[mid, 1], prof.cruise[1] * np.sign(q1[1]), rtol=1e-12)
-
-
-def test_trapezoid_raises_the_acceleration_a_short_duration_needs() -> None:
-    prof = TrapezoidalProfile(np.zeros(1), np.ones(1), 1.0, np.array([1.0]))
-    # 4 |dq| / T^2 = 4 > 1: reported, so the planner's limit check catches it.
-    assert prof.peaks()[1][0] == pytest.approx(4.0)
 
 
 def test_sample_equals_three_calls() -> None:
@@ -228,13 +166,3 @@ def test_sample_equals_three_calls() -> None:
         q = profile.sample(t)[0]
         np.testing.assert_array_equal(q[0], q0)
         np.testing.assert_array_equal(q[1], q1)
-
-
-def test_unit_roots_take_roots_at_the_bracket_ends_at_once() -> None:
-    """The rest-to-rest quintic's jerk has roots at s = 0 and 1 (and 1/2): found exactly, without
-    ~45 bisection steps toward an end (the loop ends after its first iteration)."""
-    c = np.array([120.0, -180.0, 60.0, 0.0])[:, None] * np.array([1.0, -2.5, 1e-3])
-    roots = unit_roots(c)
-    np.testing.assert_allclose(
-        np.sort(roots, axis=0), [[0.0] * 3, [0.5] * 3, [1.0] * 3], atol=1e-15
-    )

@@ -6,11 +6,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core import timing
-from core.errors import Infeasible, InputError, JointLimit, JointRateLimit
+from core.budget import Deadline
+from core.errors import Infeasible, InputError, JointLimit, JointRateLimit, TimeBudgetExceeded
+from core.joint import durations as timing
+from core.joint.durations import shortest_feasible
+from core.joint.point_to_point import PROFILES as REGISTRY
+from core.joint.point_to_point import PointToPoint, plan_joint
 from core.limits import JointLimits
-from core.point_to_point import PROFILES, PointToPoint, build_profile, plan_joint
-from core.timing import shortest_feasible
+
+PROFILES = ("linear", "cubic", "quintic", "trapezoidal")
+"""The profiles timed by velocity and acceleration limits alone (``jerk_limited`` also needs jerk:
+tests/core/joint/profiles/test_jerk_limited.py)."""
 
 RNG_SEED = 7301
 
@@ -21,7 +27,7 @@ def random_limits(rng: np.random.Generator, dof: int) -> JointLimits:
 
 def ratios(plan, limits: JointLimits, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """Exact and sampled peak/limit ratios, each ``(dof,)`` velocity then acceleration stacked."""
-    vel, acc = plan.profile.peaks()
+    vel, acc, _ = plan.profile.peaks()
     traj = plan.trajectory
     exact = np.concatenate([vel / limits.velocity, acc / limits.acceleration])
     sampled = np.concatenate(
@@ -63,7 +69,7 @@ def test_boundary_rates_shortest_duration_is_found_numerically(kind: str) -> Non
         except JointRateLimit:
             # Truly infeasible: no duration on a fine scan keeps within the limits.
             durations = np.geomspace(timing.MIN_DURATION, timing.MAX_DURATION, 4001)
-            vel_pk, acc_pk = build_profile(kind, motion, durations[:, None], np.inf).peaks()
+            vel_pk, acc_pk = REGISTRY[kind].build(motion, durations[:, None], np.inf).peaks()[:2]
             excess = np.maximum(vel_pk / limits.velocity, acc_pk / limits.acceleration)
             assert np.all(excess.max(axis=1) > 1.0), motion
             continue
@@ -213,3 +219,18 @@ def test_too_many_points_before_allocating() -> None:
     motion = PointToPoint.create([0.0], [1.0])
     with pytest.raises(TooLarge):
         plan_joint("cubic", motion, duration=1e5, sample_period=1e-4)
+
+
+def test_a_given_duration_under_vanishing_limits_names_no_absurd_duration() -> None:
+    motion = PointToPoint.create([0.0], [0.5])
+    limits = JointLimits(np.array([1e-300]), np.array([1e-300]))
+    for kind in PROFILES:
+        with np.errstate(over="raise", invalid="raise"), pytest.raises(JointRateLimit) as err:
+            plan_joint(kind, motion, limits, duration=1.0)
+        assert "more than 100000 s" in str(err.value), (kind, str(err.value))
+
+
+def test_an_expired_deadline_stops_the_plan() -> None:
+    motion = PointToPoint.create([0.0], [1.0])
+    with pytest.raises(TimeBudgetExceeded):
+        plan_joint("quintic", motion, duration=1.0, deadline=Deadline(0.0))

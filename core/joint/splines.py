@@ -19,9 +19,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from core import timing
 from core.budget import NO_DEADLINE, Deadline
-from core.errors import InputError, JointRateLimit, PlanningError
+from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
+from core.joint import durations
 from core.limits import (
     JointLimits,
     check_boundary_rates,
@@ -29,7 +29,7 @@ from core.limits import (
     check_rates,
     joint_vector,
 )
-from core.trajectory import MAX_POINTS, Trajectory, default_joint_names, sample_times
+from core.trajectory import MAX_POINTS, Peaks, Trajectory, default_joint_names, sample_times
 
 BOUNDARIES = ("clamped", "natural", "not-a-knot")
 MIN_KNOT_SPACING = 1e-6
@@ -140,6 +140,12 @@ class SplineProfile:
         acc = np.maximum(np.abs(2.0 * c1), np.abs(6.0 * c0 * h + 2.0 * c1))
         return vel, acc
 
+    def peaks(self) -> Peaks:
+        """Exact largest |velocity|, |acceleration| and |jerk| (``6 |c0|``, constant on each
+        piece) over the whole spline, each ``(dof,)``."""
+        vel, acc = self.segment_peaks()
+        return Peaks(vel.max(axis=0), acc.max(axis=0), np.abs(6.0 * self.spline.c[0]).max(axis=0))
+
 
 class SplinePlan(NamedTuple):
     """A planned spline: the sampled ``trajectory``, the ``profile``, its ``knot_times`` [s]
@@ -181,6 +187,15 @@ def allocate_times(
     if limits.velocity is None and limits.acceleration is None:
         raise InputError("give times, or limits (or a robot) to time the spline", field=("limits",))
     dq = np.abs(np.diff(waypoints, axis=0))
+    # No piece is faster than its distance over the speed limit: a sum of those beyond the longest
+    # duration is infeasible before any fit (a URDF's 1e-300 rad/s would overflow the knot times).
+    with np.errstate(over="ignore"):
+        lower = float((dq / vmax).max(axis=1).sum())
+    if not lower <= durations.MAX_DURATION:
+        raise Infeasible(
+            f"this spline needs more than {durations.MAX_DURATION:g} s under these limits",
+            field=("limits",),
+        )
     h = np.maximum(dq / vmax, 2.0 * np.sqrt(dq / amax)).max(axis=1)
     h = np.maximum(h, 0.05 * h.max()) if h.max() > 0.0 else np.ones_like(h)
 
@@ -201,23 +216,25 @@ def allocate_times(
         h = h * np.clip(ratios / k, 0.25, 1.0) ** 0.5
     homogeneous = boundary != "clamped" or not (np.any(start_velocity) or np.any(goal_velocity))
     if homogeneous:
-        total = timing.clamp_duration(best_total if np.isfinite(best_total) else 0.0, "this spline")
+        total = durations.clamp_duration(
+            best_total if np.isfinite(best_total) else 0.0, "this spline"
+        )
         return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
 
     def excess(totals: np.ndarray) -> np.ndarray:
         scaled = (best * (d / best.sum()) for d in totals)
         return np.array([_segment_ratios(fit(p), vmax, amax).max() for p in scaled]) - 1.0
 
-    lower = max(timing.MIN_DURATION, best_total / 4.0)
-    upper = min(timing.MAX_DURATION, best_total * 4.0)
+    lower = max(durations.MIN_DURATION, best_total / 4.0)
+    upper = min(durations.MAX_DURATION, best_total * 4.0)
     total = (
-        timing.shortest_feasible(excess, lower, upper, grid_points=25) if lower < upper else None
+        durations.shortest_feasible(excess, lower, upper, grid_points=25) if lower < upper else None
     )
     if total is None or total == lower:  # nothing near the estimate, or maybe shorter below it
-        total = timing.shortest_feasible(excess)
+        total = durations.shortest_feasible(excess)
     if total is None:
         raise JointRateLimit(
-            f"no spline duration up to {timing.MAX_DURATION:g} s keeps every joint within its "
+            f"no spline duration up to {durations.MAX_DURATION:g} s keeps every joint within its "
             "limits with these end velocities"
         )
     return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
@@ -289,7 +306,7 @@ def plan_spline(
     if limits.velocity is not None or limits.acceleration is not None:  # else nothing to check
         check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
     check_positions(trajectory.positions, limits, names, times=trajectory.times)
-    warnings = () if not np.any(trajectory.velocities[-1]) else (timing.NONZERO_END_VELOCITY,)
+    warnings = () if not np.any(trajectory.velocities[-1]) else (durations.NONZERO_END_VELOCITY,)
     return SplinePlan(trajectory, profile, knots, warnings)
 
 
@@ -298,9 +315,9 @@ def _knot_times(times: object, count: int) -> np.ndarray:
     t = np.asarray(times, dtype=float)
     if t.shape != (count,):
         raise InputError(f"times needs {count} values, one per waypoint", field=("times",))
-    if not np.all(np.isfinite(t)) or t[-1] > timing.MAX_DURATION:
+    if not np.all(np.isfinite(t)) or t[-1] > durations.MAX_DURATION:
         raise InputError(
-            f"times must be finite and at most {timing.MAX_DURATION:g} s", field=("times",)
+            f"times must be finite and at most {durations.MAX_DURATION:g} s", field=("times",)
         )
     if t[0] != 0.0:
         raise InputError("times must start at 0.0", field=("times", 0))
