@@ -7,7 +7,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import robots.collision as collision
 from core.clearance import Clearance, velocity_damper_rows
+from core.errors import TooLarge
 from robots import registry
 from robots.collision import (
     CollisionChecker,
@@ -387,3 +389,14 @@ def test_damper_inputs_predict_the_distance_rate() -> None:
         dt=0.01, d_safe=0.01, d_influence=0.5,
     )  # fmt: skip
     assert rows.G.shape == (len(inputs.pairs), robot.dof)
+
+
+def test_a_check_over_the_size_bound_is_too_large(monkeypatch) -> None:
+    robot = registry.get("ur5")
+    geometry, allowed = robot_setup(robot)
+    check = CollisionChecker(robot, geometry, every_shape(), allowed_self=allowed)
+    qs = np.linspace(robot.home, robot.home + 0.1, 1000)
+    monkeypatch.setattr(collision, "MAX_KEY_ENTRIES", 63 * check.n_pairs - 1)
+    with pytest.raises(TooLarge) as info:
+        check.check_path(np.linspace(0, 1, 1000), qs)
+    assert info.value.field == ("environment",)
