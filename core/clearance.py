@@ -42,6 +42,14 @@ class Clearance(Protocol):
         moving linearly between rows: first contact, min clearance and closest pair."""
         ...
 
+    def close_pairs(
+        self, q: np.ndarray, d_influence: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Pairs closer than ``d_influence`` [m] at ``q``: indices ``(m,)``, distances ``(m,)`` [m],
+        unit normals ``(m, 3)`` towards the robot point, point Jacobians ``(m, 3, dof)``: the inputs
+        of ``velocity_damper_rows``."""
+        ...
+
 
 @dataclass(frozen=True)
 class DamperRows:

@@ -549,6 +549,13 @@ class CollisionChecker:
             Da, Db = np.r_[Da, Dm], np.r_[Dm, Db]
             seg, pp = np.r_[seg, seg], np.r_[pp, pp]
 
+    def close_pairs(
+        self, q: np.ndarray, d_influence: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``core.clearance.Clearance.close_pairs``: ``damper_inputs`` as a tuple."""
+        d = damper_inputs(self, q, d_influence)
+        return d.pairs, d.distances, d.normals, d.point_jacobians
+
     # one configuration, with coal ----------------------------------------------------------------
     def geometry_model(self) -> tuple[pin.GeometryModel, list[tuple[str, str]]]:
         """A pinocchio ``GeometryModel`` of the capsules and obstacles (coal shapes) with one collision

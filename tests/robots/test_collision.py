@@ -389,6 +389,9 @@ def test_damper_inputs_predict_the_distance_rate() -> None:
         dt=0.01, d_safe=0.01, d_influence=0.5,
     )  # fmt: skip
     assert rows.G.shape == (len(inputs.pairs), robot.dof)
+    pairs, dist, normals, jacobians = check.close_pairs(q, 0.5)  # the Clearance Protocol's form
+    assert np.array_equal(pairs, inputs.pairs) and np.allclose(jacobians, inputs.point_jacobians)
+    assert np.allclose(dist, inputs.distances) and np.allclose(normals, inputs.normals)
 
 
 def test_a_check_over_the_size_bound_is_too_large(monkeypatch) -> None:
