@@ -12,6 +12,7 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from robots import registry
+from service import environment
 from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
@@ -45,4 +46,7 @@ def cartesian_trajectory(
     robot = registry.resolve(body.robot)
     task = convert.task_from_spec(body, robot, deadline, settings.max_points)
     result, elapsed_ms = convert.run(task, body.method, settings.max_points)
+    result = environment.guard_cartesian(
+        task, result, body.environment, environment.inline_urdf(body.robot)
+    )
     return json_response(convert.result_body(result, body.method, elapsed_ms, time_format))

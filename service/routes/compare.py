@@ -19,6 +19,7 @@ from core.budget import Deadline
 from core.cartesian.methods import METHODS
 from core.errors import PlanningError
 from robots import registry
+from service import environment
 from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.errors import planning_error_body
@@ -54,6 +55,10 @@ def compare(
         try:
             deadline.check(f"compare: before {method}")
             result, elapsed_ms = convert.run(task, method, settings.max_points)
+            result = environment.guard_cartesian(
+                task, result, body.task.environment, environment.inline_urdf(body.task.robot),
+                field=("task", "environment"),
+            )  # fmt: skip
         except PlanningError as err:
             _, problem = planning_error_body(err)
             elapsed = (time.perf_counter() - started) * 1e3

@@ -21,6 +21,7 @@ from service.schemas.common import (
     StrictModel,
     TrajectoryResponse,
 )
+from service.schemas.environment import Environment
 
 Method = Literal[tuple(METHODS)]  # type: ignore[valid-type]
 """The method names, built from the registry ``core.cartesian.methods.METHODS``: a method added
@@ -81,6 +82,9 @@ class CartesianTaskSpec(StrictModel):
     """A straight-line task: the tool moves on the line from FK(start) to the goal pose."""
 
     robot: RobotRef
+    environment: Environment | None = Field(
+        default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
+    )
     start: CartesianStart = Field(
         description="Start joint positions; the line starts at their forward kinematics."
     )

@@ -22,6 +22,7 @@ from service.schemas.common import (
     StrictModel,
     TrajectoryResponse,
 )
+from service.schemas.environment import Environment
 
 MAX_BLEND_RADIUS = 10.0
 """Largest ``blend_radius`` [m] accepted (it must also be at most half of either neighbour)."""
@@ -174,6 +175,9 @@ class ProgramRequest(StrictModel):
     """POST /v1/trajectories/program."""
 
     robot: RobotRef
+    environment: Environment | None = Field(
+        default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
+    )
     start: ProgramStart = Field(description="Start joint positions of the program.")
     segments: list[ProgramSegment] = Field(
         min_length=1,
