@@ -257,11 +257,14 @@ def _check_joint_plot(driver: Any, n_points: int, dof: int, knots: int | None = 
     traces = _traces(driver, "plot-joints")
     joints = [t for t in traces if (t["meta"] or {}).get("role") == "joint"]
     limits = [t for t in traces if (t["meta"] or {}).get("role") == "limit"]
-    assert len(joints) == 3 * dof  # position, velocity, acceleration per joint
+    assert len(joints) == 4 * dof  # position, velocity, acceleration, jerk per joint
     assert all(t["n"] == n_points for t in joints), [(t["name"], t["n"]) for t in joints]
-    assert len(limits) == 3 * dof  # one dashed pair (upper, lower) per joint and quantity
-    assert {t["yaxis"] for t in limits} == {"y", "y2", "y3"}
-    assert _rendered_lines(driver, "plot-joints") >= 6 * dof
+    jerk = [t for t in joints if t["meta"]["quantity"].startswith("jerk")]
+    assert len(jerk) == dof and {t["yaxis"] for t in jerk} == {"y4"}
+    # One dashed pair (upper, lower) per joint and quantity; jerk only where a limit is known.
+    assert len(limits) in (3 * dof, 4 * dof)
+    assert {"y", "y2", "y3"} <= {t["yaxis"] for t in limits}
+    assert _rendered_lines(driver, "plot-joints") >= 7 * dof
     if knots is not None:
         marked = [t for t in traces if (t["meta"] or {}).get("role") == "knots"]
         assert len(marked) == 1 and marked[0]["n"] == knots * dof
