@@ -25,10 +25,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = ROOT / "artifacts"
+DOCS = ROOT / "docs"
 CHROMIUM = next(
     (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),
     None,
@@ -192,9 +194,33 @@ def _traces(driver: Any, plot: str) -> list[dict[str, Any]]:
         """const gd = document.getElementById(arguments[0]);
         return (gd.data || []).map((t) => ({name: t.name, type: t.type || 'scatter',
           n: (t.x || []).length, meta: t.meta || null, yaxis: t.yaxis || 'y',
-          y: (t.y || []).slice(0, 5)}));""",
+          x: Array.from(t.x || []).slice(0, 12), y: (t.y || []).slice(0, 5)}));""",
         plot,
     )
+
+
+def _arm(driver: Any, plot: str, which: str) -> dict[str, Any]:
+    """The arm trace drawn at ``which`` (start, goal, contact): name, point count, meta, x."""
+    found = driver.execute_script(
+        """const gd = document.getElementById(arguments[0]);
+        return (gd.data || []).filter((t) => t.meta && t.meta.role === 'arm'
+          && t.meta.which === arguments[1]).map((t) => ({name: t.name, n: t.x.length,
+          meta: t.meta, x: t.x}));""",
+        plot,
+        which,
+    )
+    assert found, f"no arm at {which} in {plot}"
+    return found[0]
+
+
+def _slide_arm(driver: Any, plot: str, k: int) -> None:
+    driver.execute_script(
+        """const s = document.querySelector(`.arm-bar[data-plot="${arguments[0]}"] .arm-slider`);
+        s.value = String(arguments[1]); s.dispatchEvent(new Event('input'));""",
+        plot,
+        k,
+    )
+    time.sleep(0.3)
 
 
 def _layout(driver: Any, plot: str) -> dict[str, Any]:
@@ -305,6 +331,28 @@ def test_ur5_sampled_line(server: str, page: Any) -> None:
     assert sigma[0]["y"][0] == pytest.approx(diag["singular_value_profile"]["value"][0])
     _shot(page, "ur5-cartesian")
 
+    # The arm: one polyline through every link frame of POST /fk with frames, at start and goal.
+    assert "environment" not in request  # no obstacles, no environment
+    for which, q in (
+        ("start", request["start"]["positions"]),
+        ("goal", request["goal"]["positions"]),
+    ):
+        _, a = _post(server, "/v1/robots/ur5/fk", {"positions": q, "frames": True})
+        arm = _arm(page, "plot-path", which)
+        assert arm["n"] == len(a["frames"]) >= 7
+        assert arm["meta"]["configuration"] == a["configuration"]
+        assert arm["name"] == f"arm at {which} ({a['configuration']})"
+        assert arm["x"] == pytest.approx([f["position"][0] for f in a["frames"]], abs=1e-12)
+    assert page.find_element(By.ID, "summary-config-start").text.endswith(a["configuration"])
+    moving = [
+        t for t in _traces(page, "plot-path") if (t["meta"] or {}).get("role") == "arm-moving"
+    ]
+    assert len(moving) >= 1 and moving[0]["n"] == len(a["frames"])
+    _slide_arm(page, "plot-path", 0)
+    moved = [t for t in _traces(page, "plot-path") if (t["meta"] or {}).get("role") == "arm-moving"]
+    start_arm = _arm(page, "plot-path", "start")
+    assert moved[0]["x"] == pytest.approx(start_arm["x"], abs=1e-12)  # slider at t = 0: the start
+
     # Joints view: one point per returned point, the limit lines, every joint.
     _view(page, "joints")
     _check_joint_plot(page, n, dof=6)
@@ -405,3 +453,159 @@ def test_compare_has_a_row_per_method(server: str, page: Any) -> None:
         assert trace["n"] == len(result["diagnostics"]["deviation_profile"]["s"])
     _shot(page, "compare")
     assert _severe_console_errors(page) == []
+
+
+def test_joint_move_plots_jerk_as_differences_of_the_accelerations(server: str, page: Any) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='joint']").click()
+    Select(page.find_element(By.ID, "j-profile")).select_by_value("trapezoidal")
+    _click_and_wait(page, "j-plan")
+    path, request = _last_request(page)
+    assert path == "/v1/trajectories/joint" and "jerk" not in request["limits"]
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    _check_joint_plot(page, len(body["points"]), dof=6)
+    t = np.array([p["time_from_start"] for p in body["points"]])
+    acc = np.array([p["accelerations"] for p in body["points"]])
+    expected = np.gradient(acc, t, axis=0, edge_order=1)  # central differences inside
+    jerk = page.execute_script(
+        """const gd = document.getElementById('plot-joints');
+        return gd.data.filter((t) => t.meta && t.meta.quantity && t.meta.quantity.startsWith('jerk'))
+          .map((t) => Array.from(t.y));"""
+    )
+    assert len(jerk) == 6
+    got = np.array(jerk).T
+    # Interior points: (a[i+1] - a[i-1]) / (t[i+1] - t[i-1]), as np.gradient on a uniform grid.
+    np.testing.assert_allclose(got[1:-1], expected[1:-1], rtol=1e-9, atol=1e-9)
+    assert np.abs(got).max() > 10  # the trapezoid's acceleration steps show as jerk spikes
+    # The joint move also draws the tool path and the arm (Cartesian view).
+    assert _arm(page, "plot-path", "start")["n"] >= 7
+
+    # jerk_limited adds the jerk column, and only then limits.jerk is sent.
+    Select(page.find_element(By.ID, "j-profile")).select_by_value("jerk_limited")
+    assert page.find_element(By.ID, "j-jmax-0").is_displayed()
+    _click_and_wait(page, "j-plan")
+    _, request = _last_request(page)
+    assert request["profile"] == "jerk_limited"
+    assert len(request["limits"]["jerk"]) == 6 and all(v > 0 for v in request["limits"]["jerk"])
+    assert _severe_console_errors(page) == []
+
+
+def test_ik_lists_every_solution_and_one_becomes_the_goal(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    page.find_element(By.ID, "c-goal-pose").click()
+    page.find_element(By.ID, "c-pose-from-goal").click()
+    time.sleep(0.5)
+    page.find_element(By.ID, "c-ik-all").click()
+    WebDriverWait(page, 30).until(
+        lambda d: d.execute_script("return document.getElementById('c-ik-count') !== null")
+    )
+    path, request = _last_request(page)
+    assert path == "/v1/robots/ur5/ik" and request["all"] is True
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    labels = [s["configuration"] for s in body["solutions"]]
+    assert len(labels) >= 2
+    rows = page.find_elements(By.CSS_SELECTOR, "#c-ik-list .ik-row")
+    assert [r.get_attribute("data-configuration") for r in rows] == labels
+    WebDriverWait(page, 30).until(
+        lambda d: (
+            len([t for t in _traces(d, "plot-path") if (t["meta"] or {}).get("role") == "ik-ghost"])
+            == len(labels)
+        )
+    )
+    page.find_element(By.ID, "c-ik-use-1").click()
+    time.sleep(0.3)
+    goal = [float(page.find_element(By.ID, f"c-goal-{j}").get_attribute("value")) for j in range(6)]
+    assert goal == pytest.approx(body["solutions"][1]["positions"], abs=1e-6)
+    assert page.find_element(By.ID, "c-goal-joints").is_selected()
+
+
+@pytest.mark.parametrize(
+    ("preset", "robot", "blends"), [("ur5-weld", "ur5", 4), ("panda-pick", "panda", 2)]
+)
+def test_program_preset_runs_and_shows_its_segments(
+    server: str, page: Any, preset: str, robot: str, blends: int
+) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='program']").click()
+    Select(page.find_element(By.ID, "p-preset")).select_by_value(preset)
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    _click_and_wait(page, "p-plan")
+    path, request = _last_request(page)
+    assert path == "/v1/trajectories/program" and request["robot"] == robot
+    assert len(request["segments"]) == 5
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    segs = body["segments"]
+    assert "200" in page.find_element(By.ID, "status").text
+
+    # 3D: one trace per segment in its colour, a trace per blend, a sphere per blend radius.
+    traces = _traces(page, "plot-program-path")
+    role = lambda r: [t for t in traces if (t["meta"] or {}).get("role") == r]  # noqa: E731
+    assert [t["meta"]["index"] for t in role("segment")] == [s["index"] for s in segs]
+    assert len(role("blend")) == blends == sum("blend_out" in s for s in segs)
+    spheres = role("blend-sphere")
+    assert [t["meta"]["radius"] for t in spheres] == [
+        s["blend_radius"] for s in request["segments"] if s.get("blend_radius")
+    ]
+    _, a = _post(
+        server,
+        f"/v1/robots/{robot}/fk",
+        {"positions": request["start"]["positions"], "frames": True},
+    )
+    assert _arm(page, "plot-program-path", "start")["n"] == len(a["frames"])
+
+    # Speeds: |q'| of every joint at every returned point; segment and blend windows shaded.
+    speed = _traces(page, "plot-program-speed")
+    joint = [t for t in speed if (t["meta"] or {}).get("role") == "joint-speed"]
+    assert len(joint) == len(body["joint_names"])
+    assert all(t["n"] == len(body["points"]) for t in joint)
+    assert joint[0]["y"] == pytest.approx([abs(p["velocities"][0]) for p in body["points"][:5]])
+    shapes = page.execute_script(
+        """return document.getElementById('plot-program-speed').layout.shapes
+          .map((s) => ({name: s.name, x0: s.x0, x1: s.x1}));"""
+    )
+    windows = {s["name"]: s for s in shapes}
+    for seg in segs:
+        w = windows[f"segment {seg['index'] + 1}"]
+        assert (w["x0"], w["x1"]) == pytest.approx((seg["start_time"], seg["end_time"]))
+        if "blend_out" in seg:
+            b = windows[f"blend {seg['index'] + 1}"]
+            assert (b["x0"], b["x1"]) == pytest.approx(
+                (seg["blend_out"]["start_time"], seg["blend_out"]["end_time"])
+            )
+    rows = page.find_elements(By.CSS_SELECTOR, "#program-table tbody tr[data-segment]")
+    assert len(rows) == len(segs)
+    _shot(page, f"program-{preset}")
+    if preset == "ur5-weld":
+        # The README's picture: the program view, page and form scrolled to the top.
+        page.execute_script(
+            "window.scrollTo(0, 0); document.querySelector('.forms').scrollTop = 0;"
+        )
+        time.sleep(0.3)
+        page.save_screenshot(str(DOCS / "playground.png"))
+    assert _severe_console_errors(page) == []
+
+
+def test_obstacles_are_drawn_and_sent_as_the_environment(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    page.find_element(By.ID, "env-add-sphere").click()
+    page.find_element(By.ID, "env-add-box").click()
+    radius = page.find_element(By.ID, "env-radius-0")
+    radius.clear()
+    radius.send_keys("0.07")
+    page.find_element(By.ID, "env-clearance").click()  # blur: the change event
+    _click_and_wait(page, "c-plan")
+    _, request = _last_request(page)
+    env = request["environment"]
+    assert [o["name"] for o in env["obstacles"]] == ["sphere1", "box2"]
+    assert env["obstacles"][0]["shape"] == {"type": "sphere", "radius": 0.07}
+    assert env["obstacles"][1]["shape"] == {"type": "box", "size": [0.1, 0.1, 0.1]}
+    drawn = [t for t in _traces(page, "plot-path") if (t["meta"] or {}).get("role") == "obstacle"]
+    assert [t["meta"]["name"] for t in drawn] == ["sphere1", "box2"]
+    # Removing every obstacle removes the environment from the requests again.
+    for _ in range(2):
+        page.find_element(By.CSS_SELECTOR, "#env-table tr[data-obstacle] button").click()
+    _click_and_wait(page, "c-plan")
+    assert "environment" not in _last_request(page)[1]
