@@ -889,12 +889,14 @@
    * ({arm: [[pts]], t: [...], config: [...]}) adds the arm moving along the trajectory, driven by
    * the slider under the plot.
    */
-  function drawScene(div, items, anim, filename) {
+  function drawScene(div, items, anim, filename, focus) {
     const dims = isPlanar() ? 2 : 3;
     const flat = dims === 3 && !webglAvailable();
     const comps = (pts) => Array.from({ length: 3 }, (_, c) => pts.map((p) => (p ? p[c] : null)));
     const all = [];
-    items.forEach((it) => it.pts.forEach((p) => { if (p) all.push(p); }));
+    // ``focus``: scale the view to the path alone (the arm may then reach out of the box).
+    items.filter((it) => !focus || !(it.meta && /^arm/.test(it.meta.role || '')))
+      .forEach((it) => it.pts.forEach((p) => { if (p) all.push(p); }));
     if (anim && anim.arm.length) {
       const k = Math.floor((anim.arm.length - 1) / 2);
       items.push(armItem('arm (slider)', anim.arm[k] || [], { opacity: 0.9,
@@ -1891,7 +1893,10 @@
     return null;
   }
 
+  let lastProgramPath = null; // arguments of the last renderProgramPath, to redraw on the zoom toggle
+
   function renderProgramPath(body, tool, goals, req, failure) {
+    lastProgramPath = [body, tool, goals, req, failure];
     const segs = body.segments || [];
     const dims = isPlanar() ? 2 : 3;
     const items = [];
@@ -1955,7 +1960,8 @@
         style: { mode: 'markers', marker: { size: 9, symbol: 'x', color: FAIL_COLOR } } });
     }
     state.lastToolMid = tool.p.length ? tool.p[Math.floor(tool.p.length / 2)] : null;
-    drawScene('plot-program-path', items, tool.arm.every(Boolean) ? tool : null, `${robotName()}-program-path`);
+    drawScene('plot-program-path', items, tool.arm.every(Boolean) ? tool : null,
+      `${robotName()}-program-path`, $('p-focus').checked);
   }
 
   /** Joint speeds |q'| and the tool speed against time; segment and blend windows shaded. */
@@ -2066,6 +2072,7 @@
     $('j-zoom-limits').addEventListener('change', () => { if (lastJoints) renderJoints(...lastJoints); });
     $('cmp-log').addEventListener('change', () => { if (lastCompare) renderCompareplot(...lastCompare); });
     $('dev-log').addEventListener('change', () => { if (lastDeviation) renderDeviation(...lastDeviation); });
+    $('p-focus').addEventListener('change', () => { if (lastProgramPath) renderProgramPath(...lastProgramPath); });
     $('s-add').addEventListener('click', () => {
       const rows = $('s-table').rows.length - 1;
       const last = jointValues(`s-wp-${rows - 1}`);
