@@ -609,3 +609,40 @@ def test_obstacles_are_drawn_and_sent_as_the_environment(server: str, page: Any)
         page.find_element(By.CSS_SELECTOR, "#env-table tr[data-obstacle] button").click()
     _click_and_wait(page, "c-plan")
     assert "environment" not in _last_request(page)[1]
+
+
+def test_program_editor_reorders_and_a_bad_blend_is_named(server: str, page: Any) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='program']").click()
+    Select(page.find_element(By.ID, "p-preset")).select_by_value("ur5-weld")
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    x0 = float(page.find_element(By.ID, "p-seg-0-p0").get_attribute("value"))
+    x1 = float(page.find_element(By.ID, "p-seg-1-p0").get_attribute("value"))
+    # Move segment 2 up, remove the last, add a PTP: the request follows the editor.
+    page.find_element(
+        By.CSS_SELECTOR, "#p-segments .segment[data-segment='1'] button[title='move up']"
+    ).click()
+    page.find_element(By.ID, "p-seg-4-remove").click()
+    page.find_element(By.ID, "p-add-ptp").click()
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    blend = page.find_element(By.ID, "p-seg-1-blend")
+    blend.clear()
+    blend.send_keys("0.5")
+    page.find_element(By.ID, "p-period").click()  # blur: the change event
+    _click_and_wait(page, "p-plan")
+    path, request = _last_request(page)
+    segs = request["segments"]
+    assert [s["type"] for s in segs] == ["lin", "lin", "lin", "lin", "ptp"]
+    assert segs[0]["goal"]["pose"]["position"][0] == pytest.approx(x1)
+    assert segs[1]["goal"]["pose"]["position"][0] == pytest.approx(x0)
+    assert segs[1]["blend_radius"] == 0.5
+    assert "positions" in segs[4]["goal"] and "blend_radius" not in segs[4]
+    status, problem = _post(server, path, request)
+    assert status == 422 and problem["code"] == "validation", problem
+    assert page.find_element(By.ID, "problem-code").text == "validation"
+    locs = [e.text for e in page.find_elements(By.CSS_SELECTOR, "#problem ul.errors code")]
+    assert "body.segments.1.blend_radius" in locs
+    assert _severe_console_errors(page) == []
