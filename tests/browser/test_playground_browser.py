@@ -646,3 +646,48 @@ def test_program_editor_reorders_and_a_bad_blend_is_named(server: str, page: Any
     locs = [e.text for e in page.find_elements(By.CSS_SELECTOR, "#problem ul.errors code")]
     assert "body.segments.1.blend_radius" in locs
     assert _severe_console_errors(page) == []
+
+
+def _accepts_environment(server: str, path: str) -> bool:
+    """Whether the served OpenAPI request schema of ``path`` has ``environment`` (API.md round 2)."""
+    with urllib.request.urlopen(f"{server}/openapi.json", timeout=30) as r:
+        doc = json.loads(r.read())
+    ref = doc["paths"][path]["post"]["requestBody"]["content"]["application/json"]["schema"]
+    schema = doc["components"]["schemas"][ref["$ref"].rsplit("/", 1)[-1]] if "$ref" in ref else ref
+    return "environment" in schema.get("properties", {})
+
+
+def test_a_collision_is_marked_where_it_happens(server: str, page: Any) -> None:
+    if not _accepts_environment(server, "/v1/trajectories/cartesian"):
+        pytest.skip("this service has no environment on /v1/trajectories/cartesian yet (issue 15)")
+    _preset(page, "ur5-line")
+    _click_and_wait(page, "c-plan")  # the new obstacle goes to the middle of this tool path
+    page.find_element(By.ID, "env-add-sphere").click()
+    _click_and_wait(page, "c-plan")
+    path, request = _last_request(page)
+    status, problem = _post(server, path, request)
+    assert status == 422 and problem["code"] == "collision", problem
+    assert page.find_element(By.ID, "problem-code").text == "collision"
+    traces = _traces(page, "plot-path")
+    contact = [t for t in traces if (t["meta"] or {}).get("role") == "collision"]
+    assert len(contact) == 1
+    assert contact[0]["meta"]["time_from_start"] == pytest.approx(problem["time_from_start"])
+    assert contact[0]["meta"]["links"] == problem["links"]
+    assert _arm(page, "plot-path", "contact")["n"] >= 7
+    layout = _layout(page, "plot-deviation")
+    assert any(sh["x0"] == pytest.approx(problem["s"]) for sh in layout["shapes"])
+
+    # Lifted 1 m clear of the path: 200, and min_clearance in the summary.
+    z = page.find_element(By.ID, "env-pos-0-2")
+    lifted = float(z.get_attribute("value")) + 1.0
+    z.clear()
+    z.send_keys(str(lifted))
+    page.find_element(By.ID, "env-clearance").click()
+    _click_and_wait(page, "c-plan")
+    path, request = _last_request(page)
+    assert request["environment"]["obstacles"][0]["pose"]["position"][2] == pytest.approx(lifted)
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    clearance = body["diagnostics"]["min_clearance"]
+    assert clearance > 0
+    assert f"{clearance:.3g}"[:4] in page.find_element(By.ID, "summary").text
