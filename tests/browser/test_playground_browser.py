@@ -487,6 +487,18 @@ def test_joint_move_plots_jerk_as_differences_of_the_accelerations(server: str, 
     _, request = _last_request(page)
     assert request["profile"] == "jerk_limited"
     assert len(request["limits"]["jerk"]) == 6 and all(v > 0 for v in request["limits"]["jerk"])
+    status, body = _post(server, "/v1/trajectories/joint", request)
+    if status == 200:  # a service with jerk_limited (issue 17): the jerk limits are drawn too
+        traces = _traces(page, "plot-joints")
+        jerk_limits = [
+            t
+            for t in traces
+            if (t["meta"] or {}).get("role") == "limit" and t["meta"]["quantity"].startswith("jerk")
+        ]
+        assert len(jerk_limits) == 6 and {t["yaxis"] for t in jerk_limits} == {"y4"}
+        assert "200" in page.find_element(By.ID, "status").text
+    else:  # not there yet: the page shows the service's own answer
+        assert status == 422 and page.find_element(By.ID, "problem-code").text == body["code"]
     assert _severe_console_errors(page) == []
 
 
