@@ -286,6 +286,7 @@
     buildJointForm();
     buildSplineForm();
     buildProgramForm();
+    $('geometry-toggle').hidden = !(Array.isArray(r.collision_geometry) && r.collision_geometry.length);
     // The pose fields start at FK(goal joints), so switching to a pose goal is one click.
     const a = await fk(jointValues('c-goal'));
     if (a) setPose(a.pose);
@@ -755,7 +756,7 @@
     const poses = await mapLimit(idx, FK_CONCURRENCY, (i) => fk(points[i].positions, true));
     const diag = body.diagnostics || {};
     const sAt = sOfTime(diag.deviation_profile);
-    const out = { p: [], t: [], s: [], sigma: [], arm: [], config: [] };
+    const out = { p: [], t: [], s: [], sigma: [], arm: [], config: [], frames: [] };
     idx.forEach((i, k) => {
       if (!poses[k]) return;
       const p = poses[k].pose.position;
@@ -768,6 +769,7 @@
       }
       out.p.push(p); out.t.push(t); out.s.push(s); out.sigma.push(poses[k].min_singular_value);
       out.arm.push(framePoints(poses[k])); out.config.push(poses[k].configuration || null);
+      if (out.frames.length === 0) out.frames.push(poses[k].frames || null); // the first point's frames
     });
     return out;
   }
@@ -853,6 +855,82 @@
         style: { alphahull: 0, opacity: 0.25, color: '#f59e0b', showlegend: false, hoverinfo: 'skip' } });
     });
     return items;
+  }
+
+  /** Quaternion product a * b, both (x, y, z, w). */
+  function quatMul(a, b) {
+    const [ax, ay, az, aw] = a;
+    const [bx, by, bz, bw] = b;
+    return [aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+      aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz];
+  }
+  /** Wireframe of one collision shape in its own frame (capsule and cylinder along local z). */
+  function shapeWire(shape) {
+    const ring = (r, z, plane) => {
+      const out = [];
+      for (let k = 0; k <= 24; k++) {
+        const a = (2 * PI * k) / 24;
+        out.push(plane === 'xy' ? [r * Math.cos(a), r * Math.sin(a), z] : null);
+      }
+      out.push(null);
+      return out;
+    };
+    const arc = (r, z, sign, axis) => {
+      const out = [];
+      for (let k = 0; k <= 12; k++) {
+        const a = (PI * k) / 12;
+        const u = r * Math.cos(a);
+        const w = z + sign * r * Math.sin(a);
+        out.push(axis === 'x' ? [u, 0, w] : [0, u, w]);
+      }
+      out.push(null);
+      return out;
+    };
+    if (shape.type === 'sphere') return sphereWire([0, 0, 0], shape.radius);
+    if (shape.type === 'box') return boxWire(boxCorners([0, 0, 0], shape.size));
+    if (shape.type === 'capsule' || shape.type === 'cylinder') {
+      const r = shape.radius;
+      const h = shape.length / 2;
+      const pts = ring(r, h, 'xy').concat(ring(r, -h, 'xy'));
+      [0, 1, 2, 3].forEach((k) => {
+        const a = (PI * k) / 2;
+        pts.push([r * Math.cos(a), r * Math.sin(a), -h], [r * Math.cos(a), r * Math.sin(a), h], null);
+      });
+      if (shape.type === 'capsule') {
+        ['x', 'y'].forEach((ax) => pts.push(...arc(r, h, 1, ax), ...arc(r, -h, -1, ax)));
+      }
+      return pts;
+    }
+    return [];
+  }
+  /**
+   * The robot's ``collision_geometry`` (GET /v1/robots/{name}, API.md round 2: link, shape, origin
+   * in the link frame) placed by the link frames of one /fk answer; none where the robot has none.
+   */
+  function geometryItems(frames, name) {
+    const geo = state.robot && state.robot.collision_geometry;
+    if (!Array.isArray(geo) || !geo.length || !Array.isArray(frames) || !$('show-geometry').checked) return [];
+    const byName = new Map(frames.map((f) => [f.name, f]));
+    const pts = [];
+    let count = 0;
+    geo.forEach((g) => {
+      const f = byName.get(g.link);
+      if (!f || !g.shape) return;
+      const o = g.origin || { position: [0, 0, 0], orientation: [0, 0, 0, 1] };
+      const r0 = rotate(f.orientation, o.position);
+      const centre = [0, 1, 2].map((c) => f.position[c] + r0[c]);
+      const q = quatMul(f.orientation, o.orientation);
+      shapeWire(g.shape).forEach((v) => {
+        if (!v) { pts.push(null); return; }
+        const w = rotate(q, v);
+        pts.push([centre[0] + w[0], centre[1] + w[1], centre[2] + w[2]]);
+      });
+      pts.push(null);
+      count += 1;
+    });
+    if (!count) return [];
+    return [{ name: name, pts: pts, meta: { role: 'collision-geometry', shapes: count },
+      style: { mode: 'lines', line: { color: '#0d9488', width: 2 }, opacity: 0.8, hoverinfo: 'name' } }];
   }
 
   function armItem(name, pts, style, meta) {
@@ -1005,7 +1083,10 @@
    * The tool path (FK of the returned points) beside the ideal line (null for joint moves), the
    * arm at the start and the goal, the moving arm, obstacles and the first contact.
    */
+  let lastPath = null; // arguments of the last renderPath, to redraw on the geometry toggle
+
   function renderPath(line, tool, marks, knotsTool, failure) {
+    lastPath = [line, tool, marks, knotsTool, failure];
     if (!line && !(tool && tool.p.length)) {
       placeholder('plot-path', 'No line: the start (or goal) joints were refused');
       return;
@@ -1058,6 +1139,8 @@
         { line: { color: '#111', width: 7 }, marker: { size: 3, color: '#111' }, opacity: 0.75 },
         { role: 'arm', which: 'goal', configuration: goalLabel || null }));
     }
+    geometryItems(startFk ? startFk.frames : tool && tool.frames[0], 'collision geometry at start')
+      .forEach((it) => items.push(it));
     (state.ikGhosts || []).forEach((g) => items.push(armItem(`IK ${g.label}`, g.pts,
       { opacity: 0.35, line: { color: '#0891b2', width: 4, dash: 'dot' }, marker: { size: 2, color: '#0891b2' } },
       { role: 'ik-ghost', configuration: g.label })));
@@ -1952,6 +2035,7 @@
         { line: { color: '#111', width: 7 }, marker: { size: 3, color: '#111' }, opacity: 0.75 },
         { role: 'arm', which: 'goal', configuration: tool.config[last] }));
     }
+    geometryItems(tool.frames[0], 'collision geometry at start').forEach((it) => items.push(it));
     obstacleItems().forEach((it) => items.push(it));
     contactItems(failure, tool).forEach((it) => items.push(it));
     if (failure && failure.code !== 'collision' && tool.p.length) {
@@ -2073,6 +2157,10 @@
     $('cmp-log').addEventListener('change', () => { if (lastCompare) renderCompareplot(...lastCompare); });
     $('dev-log').addEventListener('change', () => { if (lastDeviation) renderDeviation(...lastDeviation); });
     $('p-focus').addEventListener('change', () => { if (lastProgramPath) renderProgramPath(...lastProgramPath); });
+    $('show-geometry').addEventListener('change', () => {
+      if (lastPath) renderPath(...lastPath);
+      if (lastProgramPath) renderProgramPath(...lastProgramPath);
+    });
     $('s-add').addEventListener('click', () => {
       const rows = $('s-table').rows.length - 1;
       const last = jointValues(`s-wp-${rows - 1}`);

@@ -704,3 +704,89 @@ def test_a_collision_is_marked_where_it_happens(server: str, page: Any) -> None:
     clearance = body["diagnostics"]["min_clearance"]
     assert clearance > 0
     assert f"{clearance:.3g}"[:4] in page.find_element(By.ID, "summary").text
+
+
+_GEOMETRY = [
+    # API.md round 2: {"link", "shape", "origin": pose in the link frame}; injected below.
+    {
+        "link": "wrist_3_link",
+        "shape": {"type": "sphere", "radius": 0.05},
+        "origin": {"position": [0.0, 0.0, 0.02], "orientation": [0.0, 0.0, 0.0, 1.0]},
+    },
+    {
+        "link": "forearm_link",
+        "shape": {"type": "capsule", "radius": 0.04, "length": 0.3},
+        "origin": {
+            "position": [0.0, 0.0, 0.15],
+            "orientation": [0.0, 0.7071067811865476, 0.0, 0.7071067811865476],
+        },
+    },
+]
+
+
+def _quat_matrix(q: list[float]) -> np.ndarray:
+    x, y, z, w = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def test_collision_geometry_of_the_description_is_drawn_on_the_arm(server: str, page: Any) -> None:
+    """A description with ``collision_geometry`` (injected into the page's GET, as the contract
+    gives it) is drawn at the start: every wire point on its shape, placed by the /fk link frame."""
+    page.execute_script(
+        """const geo = arguments[0];
+        const orig = window.fetch;
+        window.fetch = async (url, init) => {
+          const res = await orig(url, init);
+          if (!String(url).endsWith('/v1/robots/ur5') || (init && init.method !== 'GET')) return res;
+          const body = await res.json();
+          body.collision_geometry = geo;
+          return new Response(JSON.stringify(body), {status: 200,
+            headers: {'content-type': 'application/json'}});
+        };""",
+        _GEOMETRY,
+    )
+    robot = Select(page.find_element(By.ID, "robot"))
+    robot.select_by_value("panda")
+    WebDriverWait(page, 15).until(lambda d: d.find_elements(By.ID, "c-start-6"))
+    robot.select_by_value("ur5")
+    WebDriverWait(page, 15).until(lambda d: not d.find_elements(By.ID, "c-start-6"))
+    WebDriverWait(page, 15).until(lambda d: d.find_element(By.ID, "geometry-toggle").is_displayed())
+    _click_and_wait(page, "c-plan")
+    _, request = _last_request(page)
+    _, a = _post(
+        server, "/v1/robots/ur5/fk", {"positions": request["start"]["positions"], "frames": True}
+    )
+    frames = {f["name"]: f for f in a["frames"]}
+    drawn = page.execute_script(
+        """const gd = document.getElementById('plot-path');
+        return gd.data.filter((t) => t.meta && t.meta.role === 'collision-geometry')
+          .map((t) => ({shapes: t.meta.shapes, x: Array.from(t.x), y: Array.from(t.y),
+            z: Array.from(t.z || t.y)}));"""
+    )
+    assert len(drawn) == 1 and drawn[0]["shapes"] == 2
+    # Split at the null after each shape's wire: sphere first, then capsule.
+    pts = [
+        None if x is None else np.array([x, y, z])
+        for x, y, z in zip(drawn[0]["x"], drawn[0]["y"], drawn[0]["z"], strict=True)
+    ]
+    placed = []
+    for g in _GEOMETRY:
+        f = frames[g["link"]]
+        R = _quat_matrix(f["orientation"])
+        centre = np.array(f["position"]) + R @ np.array(g["origin"]["position"])
+        axis = R @ _quat_matrix(g["origin"]["orientation"]) @ np.array([0.0, 0.0, 1.0])
+        placed.append((centre, axis))
+    points = np.array([p for p in pts if p is not None])
+    (c0, _), (c1, ax1) = placed
+    on_sphere = np.abs(np.linalg.norm(points - c0, axis=1) - 0.05) < 1e-9
+    # Distance of each point to the capsule's axis segment: 0.04 on its surface.
+    t = np.clip((points - c1) @ ax1, -0.15, 0.15)
+    on_capsule = np.abs(np.linalg.norm(points - (c1 + np.outer(t, ax1)), axis=1) - 0.04) < 1e-9
+    assert np.all(on_sphere | on_capsule)
+    assert on_sphere.sum() > 50 and on_capsule.sum() > 50
