@@ -66,6 +66,12 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
         if isinstance(s, PtpSegment):
             segments.append(Segment("ptp", configuration=s.goal.configuration, **common))
             continue
+        if s.method != "sampled":
+            raise InputError(
+                "only method 'sampled' is supported in programs (bounded_deviation is planned "
+                "for single lines only)",
+                field=("segments", i, "method"),
+            )
         extra: dict[str, Any] = {}
         if isinstance(s, CircSegment):
             extra = {

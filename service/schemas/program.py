@@ -60,7 +60,10 @@ class PtpGoal(StrictModel):
         max_length=64,
         pattern=r"^[A-Za-z0-9_-]+$",
         description="Configuration label the IK solution must carry (with pose; robots that "
-        "have labels).",
+        "have labels, e.g. UR5 `left-up-noflip`): the solution with this label nearest the "
+        "current joints. Without it: the solution nearest the current joints. A label the pose "
+        "has no solution with is 422 `unreachable` with `segment` and `configurations` (the "
+        "labels it has); a label the robot does not know is 422 `validation` here.",
     )
 
     @model_validator(mode="after")
@@ -129,8 +132,9 @@ class _CartesianSegment(_Common):
     )
     method: Literal["sampled", "bounded_deviation"] = Field(
         default="sampled",
-        description="Accepted; a program plans its lines and arcs by sampled IK (every sample "
-        "on the path, deviation measured between the returned points).",
+        description="Only `sampled` is supported in programs: lines and arcs are planned by "
+        "sampled IK (every sample on the path, deviation measured densely between the returned "
+        "points). `bounded_deviation` (Taylor knots) is 422 `validation` at this field.",
     )
     tolerance: Tolerance = Field(
         default_factory=Tolerance,
