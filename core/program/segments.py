@@ -15,6 +15,8 @@ from core.budget import NO_DEADLINE, Deadline
 from core.kinematics import Kinematics
 
 SegmentType = Literal["ptp", "lin", "circ"]
+PTP_PROFILES = ("trapezoidal", "quintic", "jerk_limited")
+"""Joint profiles a PTP between stops may ask for (entries of ``core.joint.profiles.PROFILES``)."""
 MAX_SEGMENTS = 100
 DEFAULT_MAX_LINEAR_SPEED = 0.25
 """Tool speed [m/s] of a LIN/CIRC segment without ``max_linear_speed`` (as a single line)."""
@@ -35,6 +37,10 @@ class Segment:
         goal_pose: Goal tool pose (4, 4), or None when ``goal_positions`` is given.
         goal_positions: Goal joint positions (dof,) [rad or m]; for lin/circ their FK is the goal pose.
         configuration: PTP to a pose: the configuration label the IK solution must carry.
+        profile: PTP between stops (not blended at either end): the joint profile of
+            ``core.joint.profiles.PROFILES`` it is timed with (``trapezoidal``, ``quintic``,
+            ``jerk_limited``), under the joint limits times its scales. None, or a PTP inside a
+            blend: the program's common timing (time-optimal along the path, C2).
         interim: CIRC: a point (3,) [m] on the arc.
         center: CIRC: the circle's centre (3,) [m].
         blend_radius: Radius [m] of the blend sphere about this segment's goal position (0: stop).
@@ -50,6 +56,7 @@ class Segment:
     goal_pose: np.ndarray | None = None
     goal_positions: np.ndarray | None = None
     configuration: str | None = None
+    profile: str | None = None
     interim: np.ndarray | None = None
     center: np.ndarray | None = None
     blend_radius: float = 0.0

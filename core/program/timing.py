@@ -20,6 +20,7 @@ is continuous across pieces that meet with a continuous tangent. Then:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,7 @@ from scipy.interpolate import BSpline, CubicSpline, make_interp_spline
 
 from core.line import rotvecs
 from core.path_timing import GridTiming
+from core.trajectory import Peaks
 
 ACCELERATION_SHARE = 0.5
 CHECKS_PER_INTERVAL = 10
@@ -76,15 +78,42 @@ class ChunkTiming:
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities, accelerations (N, dof) at times ``t`` (N,) [s]."""
-        return _evaluate(
-            self.law, self.path, np.asarray(t, dtype=float) / self.stretch, self.stretch
-        )
+        tau = np.asarray(t, dtype=float) / self.stretch
+        return _evaluate(self.law, self.path, tau, self.duration / self.stretch, self.stretch)
+
+    def peaks(self) -> Peaks:
+        """Largest speed, acceleration and jerk per joint of the analytic q(t) = P(s(t)), over a
+        dense grid (``CHECKS_PER_INTERVAL`` per knot interval). The jerk is
+        P3 s'^3 + 3 P2 s' s'' + P1 s''' (Pn: n-th derivative of the path spline); P3 is constant
+        on each cubic piece and steps at its knots, so both neighbouring pieces' values count."""
+        k, end = self.stretch, self.duration / self.stretch
+        t = self.knot_times / k
+        frac = np.arange(CHECKS_PER_INTERVAL) / CHECKS_PER_INTERVAL
+        tau = np.concatenate([(t[:-1, None] + np.diff(t)[:, None] * frac).ravel(), [end]])
+        _, vel, acc = _evaluate(self.law, self.path, tau, end, k)
+        s = np.clip(self.law(tau), 0.0, 1.0)
+        sd, sdd, sddd = (self.law(tau, n) / k**n for n in (1, 2, 3))
+        d1, d2 = self.path(s, 1), self.path(s, 2)
+        x = self.path.x
+        jerk = np.zeros(vel.shape[1])
+        for back in (0, 1):  # this cubic piece and the previous one
+            piece = np.clip(np.searchsorted(x, s, side="right") - 1 - back, 0, len(x) - 2)
+            d3 = 6.0 * self.path.c[0, piece]
+            j = d3 * (sd**3)[:, None] + 3.0 * d2 * (sd * sdd)[:, None] + d1 * sddd[:, None]
+            jerk = np.maximum(jerk, np.abs(j).max(axis=0))
+        return Peaks(np.abs(vel).max(axis=0), np.abs(acc).max(axis=0), jerk)
 
 
 def _evaluate(
-    law: BSpline, path: CubicSpline, tau: np.ndarray, k: float = 1.0
+    law: Callable[..., np.ndarray],
+    path: CubicSpline,
+    tau: np.ndarray,
+    end: float,
+    k: float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    tau = np.clip(tau, 0.0, law.t[-1])
+    """Positions, velocities, accelerations (N, dof) at unstretched times ``tau`` (clipped to
+    [0, ``end``]) of a timing stretched by ``k`` (s' divided by k, s'' by k^2)."""
+    tau = np.clip(tau, 0.0, end)
     s = np.clip(law(tau), 0.0, 1.0)
     sd, sdd = law(tau, 1) / k, law(tau, 2) / k**2
     d1 = path(s, 1)
@@ -144,7 +173,7 @@ def time_chunk(c: ChunkInput) -> ChunkTiming:
     # Dense check of the limits between the knots.
     frac = np.arange(CHECKS_PER_INTERVAL) / CHECKS_PER_INTERVAL
     dense = (t[:-1, None] + np.diff(t)[:, None] * frac).ravel()
-    _, vel, accel = _evaluate(law, path, dense)
+    _, vel, accel = _evaluate(law, path, dense, float(t[-1]))
     v_lim = np.repeat(np.minimum(c.v_max[:-1], c.v_max[1:]), CHECKS_PER_INTERVAL, axis=0)
     a_lim = np.repeat(np.minimum(c.a_max[:-1], c.a_max[1:]), CHECKS_PER_INTERVAL, axis=0)
     ratio_v = float(np.max(np.abs(vel) / v_lim))

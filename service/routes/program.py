@@ -64,7 +64,9 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
             "acceleration_scale": s.acceleration_scale,
         }
         if isinstance(s, PtpSegment):
-            segments.append(Segment("ptp", configuration=s.goal.configuration, **common))
+            segments.append(
+                Segment("ptp", configuration=s.goal.configuration, profile=s.profile, **common)
+            )
             continue
         if s.method != "sampled":
             raise InputError(

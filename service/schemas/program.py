@@ -107,10 +107,16 @@ class PtpSegment(_Common):
     goal: PtpGoal = Field(
         description="Goal joint positions, or a tool pose (IK nearest the joints)."
     )
-    profile: Literal["trapezoidal", "quintic"] = Field(
-        default="trapezoidal",
-        description="Accepted for compatibility: every PTP is timed with the program (time-optimal "
-        "under the scaled joint limits, C2 through a quintic spline).",
+    profile: Literal["trapezoidal", "quintic", "jerk_limited"] | None = Field(
+        default=None,
+        description="Joint profile of a PTP between stops (no blend into or out of it), rest to "
+        "rest under the joint limits times velocity_scale/acceleration_scale, as on "
+        "/v1/trajectories/joint: `trapezoidal` (acceleration steps at the ramp ends), `quintic`, "
+        "`jerk_limited` (Ruckig, the robot's jerk limits, e.g. Panda 7500 rad/s^3; a robot "
+        "without published jerk limits is 422 `validation` here). Absent: the program's common "
+        "timing (time-optimal along the path, q'' continuous). Inside a blend a profile has no "
+        "meaning (the blend is timed with its neighbours as one motion): it is ignored with a "
+        "warning.",
     )
 
 

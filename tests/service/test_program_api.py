@@ -279,3 +279,29 @@ def test_time_budget_is_422_with_segment():
     tight = TestClient(create_app(Settings(time_budget_s=1e-4)))
     problem = _problem(tight.post(URL, json=program()), "time_budget_exceeded")
     assert isinstance(problem.get("segment"), int)
+
+
+def test_ptp_profiles_through_the_api(client):
+    panda = registry.get("panda")
+    q1 = (panda.home + 0.3).tolist()
+    body = {"robot": "panda", "start": {"positions": panda.home.tolist()},
+            "segments": [{"type": "ptp", "goal": {"positions": q1}, "profile": "jerk_limited"},
+                         {"type": "ptp", "goal": {"positions": panda.home.tolist()},
+                          "profile": "quintic", "velocity_scale": 0.5}],
+            "sample_period": 1e-3}  # fmt: skip
+    r = client.post(URL, json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    check_ros_trajectory(out, rest_to_rest=True)
+    t = np.array([p["time_from_start"] for p in out["points"]])
+    a = np.array([p["accelerations"] for p in out["points"]])
+    jerk = np.abs(np.diff(a, axis=0) / np.diff(t)[:, None])
+    first = t[1:] <= out["segments"][0]["end_time"]
+    assert np.all(jerk[first] <= panda.jerk_limits * (1 + 1e-6))
+    peak = np.array(out["diagnostics"]["peak_jerk"])
+    assert np.all(peak <= panda.jerk_limits * (1 + 1e-9)) and peak.max() > 1000.0
+    body["robot"], body["start"]["positions"] = "ur5", HOME
+    body["segments"] = [{"type": "ptp", "goal": {"positions": [*HOME[:5], 0.3]},
+                         "profile": "jerk_limited"}]  # fmt: skip
+    problem = _problem(client.post(URL, json=body), "validation")
+    assert _loc(problem) == ["body", "segments", 0, "profile"]

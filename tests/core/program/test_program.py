@@ -324,3 +324,16 @@ def test_lin_and_circ_keep_the_configuration_label_of_their_start():
     result = plan_program(ProgramTask(UR5, HOME, mixed()))
     labels = set(UR5.configurations(result.trajectory.positions))
     assert labels == {UR5.configuration(HOME)}
+
+
+def test_peak_jerk_is_the_analytic_jerk_checked_by_finite_differences():
+    result = plan_program(ProgramTask(UR5, HOME, mixed(), sample_period=2e-4))
+    tr = result.trajectory
+    fd = np.abs(np.diff(tr.accelerations, axis=0) / np.diff(tr.times)[:, None]).max(axis=0)
+    peak = tr.peak_jerk
+    assert np.all(np.isfinite(peak))
+    # Finite differences average the jerk over an interval: never above the analytic peak, and
+    # at this sampling close to it.
+    assert np.all(fd <= peak * (1 + 1e-3) + 1e-9)
+    assert np.all(fd >= 0.8 * peak)
+    assert np.all(tr.peak_velocity >= np.abs(tr.velocities).max(axis=0))
