@@ -105,6 +105,14 @@ def _time(task: ProgramTask, chunk: list[_Piece]) -> ChunkTiming | None:
         return None
     keep = np.concatenate([[True], step > 1e-13])
     index = np.cumsum(keep) - 1  # old sample -> kept sample
+    asking = [
+        task.segments[p.owner]
+        for p in chunk
+        if not p.blend and task.segments[p.owner].speed_profile == "s_curve"
+    ]
+    jerk = None
+    if asking:  # one S-curve for the stretch, under the tightest jerk limits asked
+        jerk = tuple(np.min([seg.tool_jerks() for seg in asking], axis=0).tolist())
     c = ChunkInput(
         q[keep],
         np.concatenate(Ts)[keep],
@@ -112,6 +120,7 @@ def _time(task: ProgramTask, chunk: list[_Piece]) -> ChunkTiming | None:
         np.concatenate(rows["a"])[keep],
         np.concatenate(rows["ts"])[keep],
         np.concatenate(rows["ta"])[keep],
+        jerk,
     )
     timing = time_chunk(c)
     for p, a, b in zip(chunk, starts, ends, strict=True):

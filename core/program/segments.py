@@ -13,6 +13,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.kinematics import Kinematics
+from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
 
 SegmentType = Literal["ptp", "lin", "circ"]
 PTP_PROFILES = ("trapezoidal", "quintic", "jerk_limited")
@@ -48,6 +49,11 @@ class Segment:
         acceleration_scale: Share (0, 1] of the joint acceleration limits.
         max_linear_speed: LIN/CIRC tool speed limit [m/s] (None: ``DEFAULT_MAX_LINEAR_SPEED``).
         max_angular_speed: LIN/CIRC tool angular speed limit [rad/s].
+        speed_profile: LIN/CIRC: ``"trapezoidal"`` (the program's time-optimal timing) or
+            ``"s_curve"``: the stretch between stops holding this segment is timed as one S-curve
+            (continuous path acceleration, path jerk limited by the tool jerk limits).
+        max_linear_jerk: S-curve tool jerk limit [m/s^3] (None: ``DEFAULT_LINEAR_JERK``).
+        max_angular_jerk: S-curve tool angular jerk limit [rad/s^3] (None: ``DEFAULT_ANGULAR_JERK``).
         position_tolerance: LIN/CIRC allowed deviation from the path [m].
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
     """
@@ -64,8 +70,17 @@ class Segment:
     acceleration_scale: float = 1.0
     max_linear_speed: float | None = None
     max_angular_speed: float | None = None
+    speed_profile: str = "trapezoidal"
+    max_linear_jerk: float | None = None
+    max_angular_jerk: float | None = None
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
+
+    def tool_jerks(self) -> tuple[float, float]:
+        """S-curve tool jerk limits [m/s^3], [rad/s^3] (defaults where not given)."""
+        lin = DEFAULT_LINEAR_JERK if self.max_linear_jerk is None else self.max_linear_jerk
+        ang = DEFAULT_ANGULAR_JERK if self.max_angular_jerk is None else self.max_angular_jerk
+        return lin, ang
 
     @property
     def cartesian(self) -> bool:

@@ -24,10 +24,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import BSpline, CubicSpline, make_interp_spline
+from scipy.interpolate import CubicSpline, make_interp_spline
 
 from core.line import rotvecs
 from core.path_timing import GridTiming
+from core.timing.s_curve import SCurveTiming
 from core.trajectory import Peaks
 
 ACCELERATION_SHARE = 0.5
@@ -48,6 +49,7 @@ class ChunkInput:
         a_max: Joint acceleration limits (K, dof) [rad/s^2].
         tool_speed: Linear and angular tool speed limits (K, 2) [m/s, rad/s] (inf: none).
         tool_acceleration: Linear and angular tool acceleration limits (K, 2) (inf: none).
+        jerk: Tool jerk limits [m/s^3, rad/s^3] of an S-curve chunk (``_s_curve``), else None.
     """
 
     q: np.ndarray
@@ -56,6 +58,7 @@ class ChunkInput:
     a_max: np.ndarray
     tool_speed: np.ndarray
     tool_acceleration: np.ndarray
+    jerk: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -66,14 +69,15 @@ class ChunkTiming:
         knot_times: Time [s] of each input sample (K,), from 0 to ``duration``.
         duration: Length of the chunk [s].
         stretch: Factor the time-optimal timing was stretched by after the dense check (>= 1).
-        law: s(tau) in the unstretched time tau = t / stretch.
+        law: s(tau) in the unstretched time tau = t / stretch (``law(tau, order)``): a quintic
+            spline, or an ``SCurveTiming``.
         path: q(s), a C2 cubic spline through the samples.
     """
 
     knot_times: np.ndarray
     duration: float
     stretch: float
-    law: BSpline
+    law: Callable[..., np.ndarray]
     path: CubicSpline
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -166,6 +170,8 @@ def time_chunk(c: ChunkInput) -> ChunkTiming:
     acc_s = CAP_MARGIN * np.minimum.reduce(acc)
     acc_int = np.minimum(acc_s[:-1], acc_s[1:])
     acc_int = np.where(np.isfinite(acc_int), acc_int, 1e6)
+    if c.jerk is not None:
+        return _s_curve(c, s, path, cap, acc_int, dp, dw)
     timing = GridTiming(s, np.minimum(cap, 1e9), acc_int)
     t = timing.t
     bc = ([(1, 0.0), (2, 0.0)], [(1, 0.0), (2, 0.0)])
@@ -183,6 +189,70 @@ def time_chunk(c: ChunkInput) -> ChunkTiming:
     return ChunkTiming(
         knot_times=t * stretch,
         duration=float(t[-1] * stretch),
+        stretch=stretch,
+        law=law,
+        path=path,
+    )
+
+
+def _s_curve(
+    c: ChunkInput,
+    s: np.ndarray,
+    path: CubicSpline,
+    cap: np.ndarray,
+    acc_int: np.ndarray,
+    dp: np.ndarray,
+    dw: np.ndarray,
+) -> ChunkTiming:
+    """An S-curve chunk: s(t) is one ``SCurveTiming`` (s'' continuous, |s'''| bounded) under the
+    chunk's smallest speed cap and path acceleration (conservative, as ``s_curve_limited``), with
+    s''' <= the tool jerk limits over the largest tool speed per unit s (``c.jerk``). A dense check
+    of the joint velocities and accelerations and of the tool's linear jerk
+    P3 s'^3 + 3 P2 s' s'' + P1 s''' (P: a C2 spline of the tool positions) stretches time
+    uniformly where needed (jerk scales by 1/k^3)."""
+    j_lin, j_ang = c.jerk  # type: ignore[misc]
+    bounds = [np.inf]
+    if dp.max() > _TINY:
+        bounds.append(j_lin / dp.max())
+    if dw.max() > _TINY:
+        bounds.append(j_ang / dw.max())
+    j_max = min(bounds)
+    if not np.isfinite(j_max):  # the tool does not move (a pure wrist turn is caught above)
+        j_max = 1e6
+    law = SCurveTiming(
+        max_velocity=float(min(np.min(cap), 1e9)),
+        max_acceleration=float(np.min(acc_int)),
+        max_jerk=float(j_max),
+    )
+    end = law.duration
+    frac = np.arange(CHECKS_PER_INTERVAL) / CHECKS_PER_INTERVAL
+    knots = np.unique(np.concatenate([law.time_at(s), np.linspace(0.0, end, 201)]))
+    dense = np.concatenate([(knots[:-1, None] + np.diff(knots)[:, None] * frac).ravel(), [end]])
+    _, vel, accel = _evaluate(law, path, dense, end)
+    s_d = np.clip(law(dense), 0.0, 1.0)
+    i = np.clip(np.searchsorted(s, s_d, side="right") - 1, 0, len(s) - 2)
+    v_lim, a_lim = np.minimum(c.v_max[i], c.v_max[i + 1]), np.minimum(c.a_max[i], c.a_max[i + 1])
+    tool = CubicSpline(s, c.T[:, :3, 3])
+    sd, sdd, sddd = law(dense, 1), law(dense, 2), law(dense, 3)
+    jerk = np.zeros(len(dense))
+    for back in (0, 1):  # P3 steps at the knots: both neighbouring pieces
+        piece = np.clip(np.searchsorted(s, s_d, side="right") - 1 - back, 0, len(s) - 2)
+        vec = (
+            6.0 * tool.c[0, piece] * (sd**3)[:, None]
+            + 3.0 * tool(s_d, 2) * (sd * sdd)[:, None]
+            + tool(s_d, 1) * sddd[:, None]
+        )
+        jerk = np.maximum(jerk, _norm_rows(vec))
+    ratio_v = float(np.max(np.abs(vel) / v_lim))
+    ratio_a = float(np.max(np.abs(accel) / a_lim))
+    ratio_j = float(jerk.max() / j_lin) if np.isfinite(j_lin) else 0.0
+    stretch = max(1.0, ratio_v, np.sqrt(ratio_a), np.cbrt(ratio_j)) * (1.0 + 1e-9)
+    stretch = 1.0 if stretch <= 1.0 + 2e-9 else stretch
+    t = law.time_at(s)
+    t[0], t[-1] = 0.0, end
+    return ChunkTiming(
+        knot_times=t * stretch,
+        duration=float(end * stretch),
         stretch=stretch,
         law=law,
         path=path,

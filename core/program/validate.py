@@ -59,6 +59,17 @@ def layout(task: ProgramTask) -> Layout:
         for name in ("velocity_scale", "acceleration_scale"):
             if not 0.0 < getattr(seg, name) <= 1.0:
                 raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
+        if seg.speed_profile not in ("trapezoidal", "s_curve") or (
+            seg.speed_profile == "s_curve" and not seg.cartesian
+        ):
+            raise InputError(
+                "speed_profile must be trapezoidal or s_curve (LIN/CIRC segments)",
+                field=("segments", i, "speed_profile"),
+            )
+        for name in ("max_linear_jerk", "max_angular_jerk"):
+            value = getattr(seg, name)
+            if value is not None and not (np.isfinite(value) and value > 0.0):
+                raise InputError(f"{name} must be > 0", field=("segments", i, name))
         if seg.profile is not None:
             if seg.type != "ptp" or seg.profile not in PTP_PROFILES:
                 raise InputError(

@@ -23,6 +23,10 @@ from service.schemas.common import (
     TrajectoryResponse,
 )
 
+MAX_LINEAR_JERK = 1e5
+"""Largest ``max_linear_jerk`` [m/s^3] accepted."""
+MAX_ANGULAR_JERK = 1e6
+"""Largest ``max_angular_jerk`` [rad/s^3] accepted."""
 MAX_BLEND_RADIUS = 10.0
 """Largest ``blend_radius`` [m] accepted (it must also be at most half of either neighbour)."""
 
@@ -141,6 +145,29 @@ class _CartesianSegment(_Common):
         description="Only `sampled` is supported in programs: lines and arcs are planned by "
         "sampled IK (every sample on the path, deviation measured densely between the returned "
         "points). `bounded_deviation` (Taylor knots) is 422 `validation` at this field.",
+    )
+    speed_profile: Literal["trapezoidal", "s_curve"] = Field(
+        default="trapezoidal",
+        description="`trapezoidal` (default): the program's time-optimal timing under the joint "
+        "velocity/acceleration caps and the tool speed limits (path acceleration continuous, "
+        "jerk not limited). `s_curve`: the whole stretch between stops that holds this segment "
+        "is timed as one S-curve s(t) (Ruckig, continuous path acceleration) with the tool's "
+        "linear jerk within `max_linear_jerk` (checked densely, blend curvature included) and "
+        "the path jerk within `max_angular_jerk` over the largest angular rate per unit path, "
+        "still under the joint velocity/acceleration caps; one speed bound for the whole "
+        "stretch, so a sharp blend slows all of it.",
+    )
+    max_linear_jerk: float | None = Field(
+        default=None,
+        gt=0.0,
+        le=MAX_LINEAR_JERK,
+        description="s_curve: tool jerk limit [m/s^3] (default 10).",
+    )
+    max_angular_jerk: float | None = Field(
+        default=None,
+        gt=0.0,
+        le=MAX_ANGULAR_JERK,
+        description="s_curve: tool angular jerk limit [rad/s^3] (default 20).",
     )
     tolerance: Tolerance = Field(
         default_factory=Tolerance,

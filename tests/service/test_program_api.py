@@ -305,3 +305,24 @@ def test_ptp_profiles_through_the_api(client):
                          "profile": "jerk_limited"}]  # fmt: skip
     problem = _problem(client.post(URL, json=body), "validation")
     assert _loc(problem) == ["body", "segments", 0, "profile"]
+
+
+def test_s_curve_lin_through_the_api(client):
+    body = {"robot": "ur5", "start": {"positions": HOME}, "sample_period": 1e-3,
+            "segments": [{"type": "lin", "goal": {"pose": pose(0.1, 0, 0)},
+                          "speed_profile": "s_curve", "max_linear_jerk": 5.0}]}  # fmt: skip
+    r = client.post(URL, json=body)
+    assert r.status_code == 200, r.text
+    pts = r.json()["points"]
+    t = np.array([p["time_from_start"] for p in pts])
+    keep = np.concatenate([[True], np.diff(t) > 5e-4])
+    q = np.array([p["positions"] for p in pts])[keep]
+    qd = np.array([p["velocities"] for p in pts])[keep]
+    v = np.einsum("nij,nj->ni", np.array([UR5.jacobian(x)[:3] for x in q]), qd)
+    a = np.diff(v, axis=0) / np.diff(t[keep])[:, None]
+    tk = t[keep]
+    jerk = np.linalg.norm(np.diff(a, axis=0), axis=1) / (0.5 * (tk[2:] - tk[:-2]))
+    assert 4.5 < jerk.max() <= 5.0 * (1 + 1e-3)
+    body["segments"][0]["max_linear_jerk"] = -1.0
+    problem = _problem(client.post(URL, json=body), "validation")
+    assert problem["errors"][0]["loc"][-1] == "max_linear_jerk"
