@@ -1,8 +1,10 @@
 """Geometry first: every segment's joint samples and every blend's, on one branch.
 
 Segments are planned in order, each from where the last ended: PTP as a joint straight line (to
-goal joints, or to the IK solution of a goal pose nearest the current joints, with the requested
-configuration label), LIN and CIRC by IK along the line or arc (``core.program.walk``). Then each
+goal joints, or to a goal pose: among every IK solution (``robot.ik_all``) the one with the
+requested configuration label nearest the current joints, else the nearest of all), LIN and CIRC
+by IK along the line or arc (``core.program.walk``), keeping the configuration label of their
+start (``robot.configurations``; a change is ``BranchFlip`` where it happens). Then each
 blend: Cartesian-Cartesian in Cartesian space (``pose_blend``, then IK seeded from the incoming
 segment), anything with a PTP in joint space (``joint_blend``). A failure is raised with
 ``extra["segment"]`` and ``s`` within that segment; ``build`` returns what was planned before it

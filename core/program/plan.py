@@ -1,11 +1,15 @@
 """A motion program as one trajectory: validate -> geometry (``build``) -> timing -> samples.
 
 The joint path is cut into chunks at every stop (an unblended segment goal); blended corners stay
-inside a chunk. Each chunk is timed as one rest-to-rest motion (``core.program.timing``), so the
-program stops exactly at unblended goals and nowhere else. The returned points are a regular grid
+inside a chunk. Each chunk is timed as one rest-to-rest motion (``core.program.timing``; an
+S-curve when one of its LIN/CIRC segments asks for ``speed_profile="s_curve"``), so the program
+stops exactly at unblended goals and nowhere else. A chunk that is a lone PTP with a ``profile``
+is timed by that joint profile instead (``core.joint.point_to_point.plan_joint``: trapezoidal,
+quintic, or jerk_limited on Ruckig), under the joint limits times the segment's scales. The returned points are a regular grid
 (``sample_period`` or ``samples``) plus every segment boundary and blend window boundary, so a
 controller reaches each goal exactly. LIN/CIRC deviation from their line/arc is measured outside
-the blend windows along the returned trajectory (``core.program.report``).
+the blend windows along the returned trajectory (``core.program.report``). The trajectory's
+peaks (``peak_jerk`` included) are those of the analytic q(t) of every chunk.
 """
 
 from __future__ import annotations

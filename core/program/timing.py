@@ -16,6 +16,10 @@ is continuous across pieces that meet with a continuous tangent. Then:
 3. A dense check (``CHECKS_PER_INTERVAL`` per knot interval) of joint velocity and acceleration
    against the limits; over them, time is stretched uniformly by the smallest factor that holds
    (velocities scale by 1/k, accelerations by 1/k^2).
+
+An S-curve chunk (``ChunkInput.jerk`` set, ``_s_curve``) replaces steps 1-2 by one
+``core.timing.s_curve.SCurveTiming`` s(t) (continuous s'', bounded jerk of s) and adds the tool's
+linear jerk to the dense check (jerk scales by 1/k^3).
 """
 
 from __future__ import annotations
