@@ -27,6 +27,7 @@ from core.program.report import ProgramResult, SegmentResult, report
 from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
 from core.program.timing import ChunkInput, ChunkTiming, time_chunk
 from core.program.validate import layout
+from core.timing.s_curve import SCurveTiming
 from core.trajectory import MAX_POINTS, Peaks, Profile, Trajectory, sample_times
 
 _MIN_GAP = 1e-6
@@ -205,12 +206,22 @@ def plan_program(task: ProgramTask) -> ProgramResult:
     timings: list[tuple[float, ChunkTiming | ProfileTiming, list[_Piece]]] = []
     offset = 0.0
     profiled: set[int] = set()
+    timed_by: dict[int, str] = {}
     for chunk in chunks:
         task.deadline.check("timing the program")
         kind = _profiled(task, chunk)
-        timing = _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
+        try:
+            timing = _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
+        except PlanningError as err:  # e.g. an S-curve over Ruckig's duration cap
+            err.extra.setdefault("segment", chunk[0].owner)
+            raise
         if kind is not None:
             profiled.add(chunk[0].owner)
+        elif timing is not None:
+            kind = "s_curve" if isinstance(timing.law, SCurveTiming) else "time_optimal"
+        for p in chunk:
+            if not p.blend:
+                timed_by[p.owner] = kind or "time_optimal"
         if timing is None:
             continue
         for p in chunk:
@@ -254,6 +265,9 @@ def plan_program(task: ProgramTask) -> ProgramResult:
     )
     if ignored:
         result = replace(result, warnings=result.warnings + ignored)
+    for sr in result.segments:  # how each segment was timed
+        if sr.index in timed_by:
+            sr.diagnostics["timing"] = timed_by[sr.index]
     # How much the dense limit check stretched the time-optimal timing (1.0: not at all), and
     # how many rest-to-rest stretches the program has (stops + 1).
     result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)

@@ -51,6 +51,8 @@ def test_jerk_limited_ptp_is_ruckigs_time_optimal_profile_within_the_panda_limit
     ref = ruckig.Trajectory(7)
     ruckig.Ruckig(7).calculate(inp, ref)
     seg = result.segments[0]
+    assert seg.diagnostics["timing"] == "jerk_limited"
+    assert result.segments[1].diagnostics["timing"] == "time_optimal"
     assert seg.start_time == 0.0
     assert seg.end_time == pytest.approx(ref.duration, rel=1e-12)
     t, q, qd, qdd = _window(result, 0)

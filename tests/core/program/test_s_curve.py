@@ -69,6 +69,8 @@ def test_s_curve_keeps_the_tool_jerk_within_its_limit_and_the_acceleration_conti
 def test_s_curve_still_holds_the_joint_limits_and_the_path(both):
     r = both["s_curve"]
     tr = r.trajectory
+    assert [sr.diagnostics["timing"] for sr in r.segments] == ["s_curve"] * 2
+    assert [sr.diagnostics["timing"] for sr in both["trapezoidal"].segments] == ["time_optimal"] * 2
     assert np.all(np.abs(tr.velocities) <= UR5.velocity_limits * (1 + 1e-9))
     assert np.all(np.abs(tr.accelerations) <= UR5.acceleration_limits * (1 + 1e-9))
     assert r.diagnostics["max_position_deviation"] < 1e-6
