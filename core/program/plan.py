@@ -25,7 +25,7 @@ from core.limits import JointLimits
 from core.program.build import Geometry, build
 from core.program.report import ProgramResult, SegmentResult, report
 from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
-from core.program.timing import ChunkInput, ChunkTiming, time_chunk
+from core.program.timing import ChunkInput, ChunkTiming, ShapedSCurve, time_chunk
 from core.program.validate import layout
 from core.timing.s_curve import SCurveTiming
 from core.trajectory import MAX_POINTS, Peaks, Profile, Trajectory, sample_times
@@ -218,7 +218,9 @@ def plan_program(task: ProgramTask) -> ProgramResult:
         if kind is not None:
             profiled.add(chunk[0].owner)
         elif timing is not None:
-            kind = "s_curve" if isinstance(timing.law, SCurveTiming) else "time_optimal"
+            kind = (
+                "s_curve" if isinstance(timing.law, SCurveTiming | ShapedSCurve) else "time_optimal"
+            )
         for p in chunk:
             if not p.blend:
                 timed_by[p.owner] = kind or "time_optimal"

@@ -151,11 +151,12 @@ class _CartesianSegment(_Common):
         description="`trapezoidal` (default): the program's time-optimal timing under the joint "
         "velocity/acceleration caps and the tool speed limits (path acceleration continuous, "
         "jerk not limited). `s_curve`: the whole stretch between stops that holds this segment "
-        "is timed as one S-curve s(t) (Ruckig, continuous path acceleration) with the tool's "
-        "linear jerk within `max_linear_jerk` (checked densely, blend curvature included) and "
-        "the path jerk within `max_angular_jerk` over the largest angular rate per unit path, "
-        "still under the joint velocity/acceleration caps; one speed bound for the whole "
-        "stretch, so a sharp blend slows all of it.",
+        "is timed with continuous path acceleration and bounded path jerk: an S-curve (Ruckig) "
+        "through a smooth speed shape that follows the joint and tool speed caps along the "
+        "path (slower in sharp blends only), with the tool's linear jerk within "
+        "`max_linear_jerk` (checked densely, blend curvature included; over it, the shape is "
+        "lowered there) and the S-curve's path jerk within `max_angular_jerk` over the largest "
+        "angular rate per unit path, still under the joint velocity/acceleration caps.",
     )
     max_linear_jerk: float | None = Field(
         default=None,

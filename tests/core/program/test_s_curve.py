@@ -69,6 +69,17 @@ def test_s_curve_keeps_the_tool_jerk_within_its_limit_and_the_acceleration_conti
 def test_s_curve_still_holds_the_joint_limits_and_the_path(both):
     r = both["s_curve"]
     tr = r.trajectory
+    # Velocities and accelerations are those of the positions (central differences, regular
+    # samples only).
+    t, q, qd, qdd = tr.times, tr.positions, tr.velocities, tr.accelerations
+    reg = np.flatnonzero(
+        (np.abs(np.diff(t)[:-1] - DT) < 1e-9) & (np.abs(np.diff(t)[1:] - DT) < 1e-9)
+    )
+    fd_v = (q[reg + 2] - q[reg]) / (2 * DT)
+    fd_a = (qd[reg + 2] - qd[reg]) / (2 * DT)
+    assert np.abs(fd_v - qd[reg + 1]).max() < 1e-5
+    # (q'(t+h) - q'(t-h)) / 2h differs from q''(t) by at most h/2 times the peak jerk.
+    assert np.all(np.abs(fd_a - qdd[reg + 1]) <= 0.5 * DT * tr.peak_jerk * (1 + 1e-6) + 1e-9)
     assert [sr.diagnostics["timing"] for sr in r.segments] == ["s_curve"] * 2
     assert [sr.diagnostics["timing"] for sr in both["trapezoidal"].segments] == ["time_optimal"] * 2
     assert np.all(np.abs(tr.velocities) <= UR5.velocity_limits * (1 + 1e-9))
