@@ -4,7 +4,7 @@ The problem (issue 16): UR5, 10 LIN segments of 10-30 cm in a horizontal plane (
 zig-zag kept inside a reachable box, turns of 30-150 degrees), blend radii of 2-5 cm. Rows:
 
 - the blended program, planned by ``core.program.plan.plan_program``;
-- the same ten lines planned alone by the single-line planner (``core.cartesian_task.plan``,
+- the same ten lines planned alone by the single-line planner (``core.cartesian.plan.plan``,
   ``sampled``), each from where the previous one ended: the sum of their planning times;
 - the same program with full stops (every blend radius 0);
 - the blended program with ``speed_profile="s_curve"`` (default tool jerk 10 m/s^3).
@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-from core.cartesian_task import CartesianTask, plan
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
 from core.program.plan import plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry

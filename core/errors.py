@@ -153,3 +153,16 @@ ALL_ERRORS: tuple[type[PlanningError], ...] = (
     TooLarge,
     TimeBudgetExceeded,
 )
+
+
+class Collision(PlanningError):
+    """The motion brings the robot closer than the clearance to an obstacle, or two of its links into
+    contact. ``extra``: ``time_from_start`` [s], ``links`` (robot link, obstacle or link), ``distance``
+    [m] (negative: penetration); ``s`` for Cartesian plans; ``detail`` says when the start or the goal
+    itself is in collision."""
+
+    code = "collision"
+    title = "Collision"
+
+
+ALL_ERRORS = (*ALL_ERRORS, Collision)

@@ -19,16 +19,13 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from core.errors import InputError, JointLimit
+from core.kinematics import Kinematics as Robot  # the model's kinematics; robots.model imports us
 from robots import configurations
 from robots.ik_numeric import search  # noqa: F401  (re-export for existing callers)
-
-if TYPE_CHECKING:
-    from robots.model import Robot
 
 TWO_PI = 2.0 * math.pi
 VERIFY_POSITION = 1e-9

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
 
+import casadi as ca
 import numpy as np
 import pinocchio as pin
 
@@ -25,6 +26,7 @@ from robots import ik as _ik
 from robots import ik_analytic as _ik_analytic
 from robots import ik_numeric as _ik_numeric
 from robots.chain import Chain
+from robots.symbolic import fk_casadi
 
 ClosedFormIK = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, bool]]
 """(goal x, y in the base frame [m], seed (dof,)) -> (joint positions, inside the limits)."""
@@ -321,6 +323,11 @@ class Robot:
         if qs.ndim != 2 or qs.shape[1] != self._model.nq:
             raise InputError(f"fk_many needs an (N, {self._model.nq}) array", field=("positions",))
         return self._chain.fk_many(qs)
+
+    def fk_casadi(self) -> ca.Function:
+        """FK as a ``casadi.Function`` ``fk(q) -> (p, R)`` (``robots.symbolic.fk_casadi``, built
+        once per robot): the ``core.kinematics.SymbolicKinematics`` member the NLP uses."""
+        return fk_casadi(self)
 
     def fk_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(fk(q), jacobian(q))`` from one pinocchio pass (its frame Jacobian updates the tip's

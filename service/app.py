@@ -12,6 +12,7 @@ from service.middleware.observability import ObservabilityMiddleware
 from service.middleware.write_timeout import WriteTimeoutMiddleware
 from service.routes import (
     cartesian,
+    collision,
     compare,
     health,
     playground,
@@ -24,7 +25,7 @@ from service.settings import Settings
 
 TRAJECTORY_ROUTERS = (trajectories, cartesian, compare, program)
 """Routers whose answers are trajectories: each route gets a deadline and ``?layout=``."""
-PLANNING_ROUTERS = (robots,)
+PLANNING_ROUTERS = (robots, collision)
 """Other routers that compute: each route gets a deadline."""
 
 

@@ -44,6 +44,7 @@ STATUS: dict[type[ex.PlanningError], int] = {
     ex.NoConvergence: 422,
     ex.TooLarge: 422,
     ex.TimeBudgetExceeded: 422,
+    ex.Collision: 422,
 }
 
 

@@ -1,7 +1,7 @@
 """The circular arc (CIRC): the tool point on a circle, orientation by slerp on the shorter arc.
 
 An arc runs from ``T_start`` to ``T_goal`` (4x4 tool poses in the base frame) over the path
-parameter s in [0, 1], like ``core.line.StraightLine`` (same members, so it can sit in the PATHS
+parameter s in [0, 1], like ``core.path.line.StraightLine`` (same members, so it can sit in the PATHS
 registry as ``"circ"``). The circle is given one of two ways:
 
 - ``interim``: a point [m] the arc passes through; the circle is the one through the start, interim
@@ -21,7 +21,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from core.errors import InputError
-from core.line import LineDeviation, StraightLine, rotvecs
+from core.geometry import so3
+from core.path.base import PathDeviation
+from core.path.line import StraightLine
 
 CENTER_TOLERANCE = 1e-4
 """Largest difference [m] between the start's and the goal's distance from ``center``."""
@@ -162,7 +164,7 @@ class Arc:
 
     def deviation(
         self, T: np.ndarray, position_tolerance: float = 1e-3, orientation_tolerance: float = 1e-2
-    ) -> LineDeviation:
+    ) -> PathDeviation:
         """Deviation of poses ``T`` (N, 4, 4) from the arc: ``s`` of the closest arc point by
         angle about the centre (clipped to the arc), the distance to it [m] and the orientation
         angle to the slerp there [rad]. The tolerances are accepted for the line's signature."""
@@ -176,8 +178,8 @@ class Arc:
         s = np.where(past, np.where(to_end < to_start, 1.0, 0.0), phi / max(self.theta, _EPS))
         position = np.linalg.norm(T[:, :3, 3] - self.positions(s), axis=1)
         err = np.swapaxes(self.rotation_matrices(s), 1, 2) @ T[:, :3, :3]
-        orientation = np.linalg.norm(rotvecs(err), axis=1)
-        return LineDeviation(s=s, position=position, orientation=orientation)
+        orientation = np.linalg.norm(so3.log(err), axis=1)
+        return PathDeviation(s=s, position=position, orientation=orientation)
 
 
 def _through(

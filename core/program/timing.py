@@ -4,7 +4,7 @@ The chunk's joint path is given by dense samples ``q_k`` (IK along lines and arc
 blends). It is parameterized by its joint-space arc length (normalized to s in [0, 1]), so dq/ds
 is continuous across pieces that meet with a continuous tangent. Then:
 
-1. Time-optimal s(t) (``core.path_timing.GridTiming``, the phase-plane forward/backward pass)
+1. Time-optimal s(t) (``core.timing.speed_limited.GridTiming``, the phase-plane forward/backward pass)
    under, at each sample: |dq/ds| s' <= v_max (the segment's scaled joint velocity limits), half of
    each joint's acceleration limit for the curvature term |d2q/ds2| s'^2 (another cap on s') and
    half for |dq/ds| |s''|, and the tool's linear/angular speed and acceleration limits on LIN/CIRC
@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline, make_interp_spline
 
-from core.line import rotvecs
-from core.path_timing import GridTiming
+from core.geometry import so3
 from core.timing.s_curve import SCurveTiming
+from core.timing.speed_limited import GridTiming
 from core.trajectory import Peaks
 
 ACCELERATION_SHARE = 0.5
@@ -145,7 +145,7 @@ def time_chunk(c: ChunkInput) -> ChunkTiming:
     ds = np.diff(s)
     # Tool speed per unit s: linear from a spline of positions, angular by finite differences.
     dp = _norm_rows(CubicSpline(s, c.T[:, :3, 3])(s, 1))
-    rel = rotvecs(c.T[1:, :3, :3] @ np.swapaxes(c.T[:-1, :3, :3], 1, 2))
+    rel = so3.log(c.T[1:, :3, :3] @ np.swapaxes(c.T[:-1, :3, :3], 1, 2))
     w_int = _norm_rows(rel) / ds
     dw = np.maximum(np.concatenate([w_int[:1], w_int]), np.concatenate([w_int, w_int[-1:]]))
     with np.errstate(divide="ignore", invalid="ignore"):

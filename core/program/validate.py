@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError
-from core.line import pose_error
+from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
 from core.program.segments import MAX_SEGMENTS, PTP_PROFILES, ProgramTask
 

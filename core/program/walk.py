@@ -20,7 +20,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import BranchFlip, JointLimit, PlanningError, Singularity, Unreachable
-from core.kinematics import Kinematics, fk_jacobian, task_rows
+from core.kinematics import Kinematics, task_rows
 
 IK_TOLERANCE = 1e-6
 """Largest IK residual [m] and [rad] accepted as on the path."""
@@ -74,7 +74,7 @@ def walk(
     names = robot.joint_names
 
     q = np.asarray(q0, dtype=float)
-    T, J = fk_jacobian(robot, q)
+    T, J = robot.fk_jacobian(q)
     sigma_min = float(np.linalg.svd(J[rows], compute_uv=False)[-1])
     s_out, q_out = [float(grid[0])], [q]
     h_max = float(np.max(np.diff(grid))) if len(grid) > 1 else 1.0
@@ -123,7 +123,7 @@ def walk(
             return JointLimit(
                 f"joint {names[j]} leaves its position limits at s={s_try:.4f}", s=s_try, joint=j
             )
-        T_new, J_new = fk_jacobian(robot, q_new)
+        T_new, J_new = robot.fk_jacobian(q_new)
         sv = float(np.linalg.svd(J_new[rows], compute_uv=False)[-1])
         if len(rows) > robot.dof or sv < SINGULAR_VALUE_THRESHOLD:
             return Singularity(

@@ -8,7 +8,7 @@ derivatives vectorized over many times (the same arithmetic as Ruckig's ``at_tim
 Python call per sample), with the exact peaks of every phase. ``calculate`` runs Ruckig and turns
 every failure (an unreachable state, Ruckig's 7,600 s cap, a brake phase) into ``Infeasible``.
 
-``SCurveTiming`` has the call shape of ``core.path_timing.QuinticTiming`` (``duration``,
+``SCurveTiming`` has the call shape of ``core.timing.quintic.QuinticTiming`` (``duration``,
 ``__call__(t, order)``, ``time_at(s)``): s goes from 0 to 1 at rest at both ends, with continuous
 s'' and |s'''| bounded. Units: [s]; s' in [1/s], s'' in [1/s^2], s''' in [1/s^3].
 """
@@ -229,7 +229,7 @@ class SCurveTiming:
 
 DEFAULT_LINEAR_JERK = 10.0
 """Tool jerk [m/s^3] used with ``max_linear_speed`` when the request gives no ``max_linear_jerk``
-(ten times ``core.path_timing.DEFAULT_LINEAR_ACCELERATION`` per second)."""
+(ten times ``core.timing.speed_limited.DEFAULT_LINEAR_ACCELERATION`` per second)."""
 DEFAULT_ANGULAR_JERK = 20.0
 """Tool angular jerk [rad/s^3] used when the request gives no ``max_angular_jerk``."""
 
@@ -254,7 +254,7 @@ def s_curve_limited(
     (s' [1/s] per grid point, from the joint velocity limits) and ``acceleration_cap`` (|s''|
     [1/s^2] per interval, from the joint acceleration limits) bound the whole profile by their
     smallest value: an S-curve has one velocity, acceleration and jerk bound, so the joint caps of
-    ``core.path_timing.speed_limited`` are held conservatively.
+    ``core.timing.speed_limited`` are held conservatively.
     """
     bounds = {"velocity": np.inf, "acceleration": np.inf, "jerk": np.inf}
     for extent, speed, acc, jerk, default_jerk in (

@@ -20,6 +20,7 @@ from core.kinematics import Kinematics
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
+from service import environment
 from service.encoding import (
     base_diagnostics,
     check_finite,
@@ -201,6 +202,7 @@ def program_trajectory(
         )
     started = time.perf_counter()
     result = plan_program(task)
+    result = environment.guard_program(result, robot, body)
     elapsed_ms = (time.perf_counter() - started) * 1e3
     check_finite(result.trajectory)
     if len(result.trajectory.times) > settings.max_points:

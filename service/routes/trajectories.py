@@ -15,6 +15,7 @@ from starlette.responses import Response
 from core.budget import Deadline
 from core.joint.point_to_point import plan_joint
 from core.joint.splines import plan_spline
+from service import environment
 from service.convert import joint as convert
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
@@ -50,8 +51,9 @@ def joint_trajectory(
         joint_names=names,
         deadline=Deadline(request.app.state.settings.time_budget_s),
     )
+    checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
-        plan.trajectory, body.profile, plan.warnings, started, time_format
+        checked.trajectory, body.profile, plan.warnings, started, time_format, **checked.diagnostics
     )
 
 
@@ -79,12 +81,14 @@ def spline_trajectory(
         joint_names=inputs.joint_names,
         deadline=Deadline(settings.time_budget_s),
     )
+    checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
-        plan.trajectory,
+        checked.trajectory,
         "spline",
         plan.warnings,
         started,
         time_format,
         boundary=body.boundary,
         knot_times=plan.knot_times,
+        **checked.diagnostics,
     )

@@ -22,6 +22,7 @@ from service.schemas.common import (
     StrictModel,
     TrajectoryResponse,
 )
+from service.schemas.environment import Environment
 
 MAX_LINEAR_JERK = 1e5
 """Largest ``max_linear_jerk`` [m/s^3] accepted."""
@@ -212,6 +213,9 @@ class ProgramRequest(StrictModel):
     """POST /v1/trajectories/program."""
 
     robot: RobotRef
+    environment: Environment | None = Field(
+        default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
+    )
     start: ProgramStart = Field(description="Start joint positions of the program.")
     segments: list[ProgramSegment] = Field(
         min_length=1,

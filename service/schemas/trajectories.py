@@ -26,6 +26,7 @@ from service.schemas.common import (
     Sampling,
     StrictModel,
 )
+from service.schemas.environment import Environment
 
 MAX_WAYPOINTS = 10_000
 """Most waypoints of one spline request."""
@@ -84,6 +85,9 @@ class JointTrajectoryRequest(Sampling):
     """``POST /v1/trajectories/joint``: a point-to-point move with one profile for every joint."""
 
     robot: RobotRef | None = Field(default=None, description=ROBOT_DESCRIPTION)
+    environment: Environment | None = Field(
+        default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
+    )
     profile: Profile = Field(
         description="linear (constant velocity; velocity steps at the ends), cubic, quintic, "
         "trapezoidal (synchronized: the slowest joint sets the duration, a triangle when the "
@@ -109,6 +113,9 @@ class SplineRequest(Sampling):
     """``POST /v1/trajectories/spline``: a C2 cubic spline through every waypoint at its time."""
 
     robot: RobotRef | None = Field(default=None, description=ROBOT_DESCRIPTION)
+    environment: Environment | None = Field(
+        default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
+    )
     waypoints: list[JointPositions] = Field(
         min_length=2,
         max_length=MAX_WAYPOINTS,

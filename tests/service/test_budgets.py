@@ -15,7 +15,7 @@ Where the time goes and what bounds it:
   1e-4 s over 40 s is 400,000 ticks.
 - every Cartesian method: ``finish`` measures the returned trajectory densely (10 checks per
   interval: 1.1 million FK evaluations and slerps for 100,000 points), ``MEASURE_CHUNK`` points at a
-  time with the deadline checked between chunks (``core.cartesian_task.measure``).
+  time with the deadline checked between chunks (``core.cartesian.check.measure``).
 - ``/v1/compare``: each method has its own budget, so at most (methods x budget) + encoding.
 - ``/v1/trajectories/joint``, ``/spline``, ``/v1/robots/{name}/fk``, ``/ik``: fast by construction.
   Their sizes are bounded by the schema (64 joints, 10,000 waypoints, 100,000 points); the spline's
@@ -41,10 +41,11 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core import cartesian_task
 from core.budget import Deadline
-from core.cartesian_task import MEASURE_CHUNK, CartesianTask, measure
-from core.deviation import measure_deviation
+from core.cartesian.check import measure
+from core.cartesian.measure import MEASURE_CHUNK, measure_deviation
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
 from core.errors import TimeBudgetExceeded
 from robots import registry
 from service import encoding
@@ -190,7 +191,8 @@ def test_compare_is_bounded_by_methods_times_budget() -> None:
 
 def test_solver_caps_sit_below_the_budget() -> None:
     """IPOPT, OSQP and IK stop on iteration caps (and IPOPT on a wall-time cap) of their own."""
-    from core import deviation_nlp, rate_qp
+    from core.cartesian import knot_nlp as deviation_nlp
+    from core.cartesian.rate import qp as rate_qp
     from robots import ik, model
 
     default_budget = Settings().time_budget_s
@@ -248,7 +250,7 @@ def test_chunked_measurement_equals_one_measurement() -> None:
         q_goal=np.array(UR5_GOAL),
         samples=2 * MEASURE_CHUNK + 17,
     )
-    result = cartesian_task.plan(task, "resolved_rate")
+    result = plan(task, "resolved_rate")
     traj = result.trajectory
     assert len(traj.times) > 2 * MEASURE_CHUNK
     whole = measure_deviation(ur5, task.line(), traj)

@@ -56,6 +56,7 @@ PLANNING_CODES = (
     "joint_rate_limit",
     "infeasible",
     "no_convergence",
+    "collision",
 )
 """422 codes a well-formed random request may rightly get (the plan is impossible)."""
 DEFAULT_COUNTS = {
@@ -473,9 +474,9 @@ SWEEPS: dict[str, tuple[str | Callable[[dict[str, Any]], str], Generator, Callab
 }
 TOLERATED = {
     "joint": ("joint_rate_limit",),
-    "joint_robot": ("joint_rate_limit",),
+    "joint_robot": ("joint_rate_limit", "collision"),
     "spline": (),
-    "spline_robot": ("joint_limit", "joint_rate_limit"),
+    "spline_robot": ("joint_limit", "joint_rate_limit", "collision"),
     "fk": (),
     "ik": ("unreachable", "joint_limit"),
     "cartesian": PLANNING_CODES,

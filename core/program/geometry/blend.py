@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from core.line import rotvecs
+from core.geometry import so3
 
 CROSSING_SAMPLES = 2001
 """Samples of a path searched for where it crosses a sphere (then bisection to ``_BISECT``)."""
@@ -43,7 +43,7 @@ def _exp(rotvec: np.ndarray) -> np.ndarray:
 
 def _log(R: np.ndarray) -> np.ndarray:
     """Rotation vectors (N, 3) of rotations (N, 3, 3): closed form away from a half turn, else
-    ``core.line.rotvecs`` (the rows near pi)."""
+    ``core.geometry.so3.log`` (the rows near pi)."""
     vee = 0.5 * np.stack(
         [R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=1
     )
@@ -54,7 +54,7 @@ def _log(R: np.ndarray) -> np.ndarray:
     out = vee * scale[:, None]
     far = cos < -0.9
     if far.any():
-        out[far] = rotvecs(R[far])
+        out[far] = so3.log(R[far])
     return out
 
 

@@ -1,7 +1,7 @@
 """The geometry of each segment: its path, where blend spheres cut it, and its joint samples.
 
 ``SegmentPath`` is one planned (or to-be-planned) segment: for LIN/CIRC the Cartesian path (a
-``core.line.StraightLine`` or ``core.path.arc.Arc``) and the IK walk along it; for PTP the joint
+``core.path.line.StraightLine`` or ``core.path.arc.Arc``) and the IK walk along it; for PTP the joint
 straight line. ``s_in``/``s_out`` are the path parameters where the tool leaves the incoming blend
 sphere and enters the outgoing one (0 and 1 without blends).
 """
@@ -14,8 +14,8 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from core.kinematics import Kinematics
-from core.line import StraightLine
 from core.path.arc import Arc
+from core.path.line import StraightLine
 from core.program.segments import Segment
 
 CartesianPath = StraightLine | Arc

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from core.errors import Infeasible, InputError
-from core.path_timing import QuinticTiming
+from core.timing.quintic import QuinticTiming
 from core.timing.s_curve import SCurveTiming, s_curve_limited
 
 DENSE = 20_001

@@ -1,0 +1,103 @@
+"""How core sees collisions: the ``Clearance`` Protocol, and the velocity-damper rows of the DLS QP.
+
+``core`` never imports ``robots``: a planner gets an object satisfying ``Clearance`` (in the service,
+``robots.collision.CollisionChecker``) and calls it on joint configurations. (Integrator: this Protocol
+belongs in ``core/kinematics.py`` next to ``Kinematics``; it lives here until that file's owners move it.)
+
+Velocity damper (Faverjon and Tournassoud 1987; mink's ``CollisionAvoidanceLimit``): for a pair at
+distance ``d`` with unit normal ``n`` (from the obstacle towards the robot point) and the robot point's
+Jacobian ``J_p`` (3, dof), the joint velocity ``qd`` must satisfy
+
+    n^T J_p qd >= -xi (d - d_safe) / (d_influence - d_safe) / dt
+
+for every pair with ``d < d_influence``: the approach speed is bounded so that the distance decays at
+most exponentially towards ``d_safe`` and never crosses it (in continuous time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class Clearance(Protocol):
+    """Distances between a robot's geometry, obstacles and its own links.
+
+    ``pair_names[p]`` is ``(robot_link, obstacle_or_link)``; ``threshold[p]`` [m] is the distance below
+    which pair ``p`` is a contact (the clearance for obstacles, 0 for self pairs).
+    """
+
+    pair_names: list[tuple[str, str]]
+    threshold: np.ndarray
+
+    def distances(self, qs: np.ndarray) -> np.ndarray:
+        """Signed distances ``(N, P)`` [m] of every pair for each row of ``qs`` ``(N, dof)``."""
+        ...
+
+    def check_path(self, times: np.ndarray, qs: np.ndarray) -> object:
+        """Continuous check of the motion through ``qs`` ``(N, dof)`` at ``times`` ``(N,)`` [s], joints
+        moving linearly between rows: first contact, min clearance and closest pair."""
+        ...
+
+    def close_pairs(
+        self, q: np.ndarray, d_influence: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Pairs closer than ``d_influence`` [m] at ``q``: indices ``(m,)``, distances ``(m,)`` [m],
+        unit normals ``(m, 3)`` towards the robot point, point Jacobians ``(m, 3, dof)``: the inputs
+        of ``velocity_damper_rows``."""
+        ...
+
+
+@dataclass(frozen=True)
+class DamperRows:
+    """Linear inequality rows ``G qd <= h`` (qpsolvers' convention) of the velocity dampers.
+
+    Attributes:
+        G: ``(m, dof)`` one row per active pair.
+        h: ``(m,)`` [m/s].
+        active: ``(P,)`` True for the pairs that produced a row (``d < d_influence``).
+    """
+
+    G: np.ndarray
+    h: np.ndarray
+    active: np.ndarray
+
+
+def velocity_damper_rows(
+    distances: np.ndarray,
+    normals: np.ndarray,
+    point_jacobians: np.ndarray,
+    *,
+    dt: float,
+    d_safe: float,
+    d_influence: float,
+    xi: float = 1.0,
+) -> DamperRows:
+    """Rows ``-n^T J_p qd <= xi (d - d_safe) / (d_influence - d_safe) / dt`` for pairs within the
+    influence distance.
+
+    Args:
+        distances: ``(P,)`` [m] signed distance of each pair.
+        normals: ``(P, 3)`` unit normals pointing from the obstacle (or the other link) to the robot
+            point; the distance grows when the robot point moves along ``n``.
+        point_jacobians: ``(P, 3, dof)`` linear Jacobian of the robot's closest point of each pair
+            (for a self pair: the difference of the two points' Jacobians).
+        dt: Control period [s] > 0.
+        d_safe: [m] the distance never to cross (>= 0 for a hard contact, the clearance otherwise).
+        d_influence: [m] > d_safe: pairs farther than this give no row.
+        xi: Gain in (0, 1]: the fraction of the remaining margin that may be closed per period.
+    """
+    d = np.asarray(distances, dtype=float).reshape(-1)
+    n = np.asarray(normals, dtype=float).reshape(len(d), 3)
+    Jp = np.asarray(point_jacobians, dtype=float)
+    if not (dt > 0 and d_influence > d_safe and 0 < xi <= 1):
+        raise ValueError("need dt > 0, d_influence > d_safe and 0 < xi <= 1")
+    if Jp.ndim != 3 or Jp.shape[:2] != (len(d), 3):
+        raise ValueError("point_jacobians must be (P, 3, dof)")
+    active = d < d_influence
+    G = -np.einsum("pi,pij->pj", n[active], Jp[active])
+    h = xi * (d[active] - d_safe) / (d_influence - d_safe) / dt
+    return DamperRows(G, h, active)

@@ -1,0 +1,297 @@
+"""The one collision check every trajectory route calls after planning.
+
+``guard`` checks a returned trajectory continuously (``robots.collision``) against the request's
+``environment`` and the robot's own links: a start or goal in collision is 422 ``collision`` saying
+which; a contact on the way is 422 ``collision`` (time, ``s`` for Cartesian plans, the two names, the
+distance), or with ``allow_partial`` the prefix before the contact. Diagnostics gain ``min_clearance``
+[m] and ``closest`` whenever something is checked. Without ``environment``, robots with collision
+geometry are still checked for self-collision.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from core.errors import Collision, InputError
+from core.trajectory import Trajectory
+from robots import registry
+from robots.collision import CollisionChecker, Obstacle, robot_setup
+from robots.model import Robot
+from service.schemas.environment import Environment, Halfspace
+
+
+@dataclass(frozen=True)
+class Guarded:
+    """A checked trajectory: the whole one, or (``allow_partial``) the clear prefix.
+
+    Attributes:
+        trajectory: What to return.
+        diagnostics: ``min_clearance``, ``closest`` (and ``unchecked_links`` warnings); empty when
+            nothing was checked.
+        failure: The contact that cut the trajectory, or None.
+        fraction: Share of the duration returned (1 without a contact).
+    """
+
+    trajectory: Trajectory
+    diagnostics: dict[str, Any]
+    failure: Collision | None = None
+    fraction: float = 1.0
+
+
+def obstacles(env: Environment) -> list[Obstacle]:
+    """The request's obstacles as ``robots.collision.Obstacle`` (base frame)."""
+    out = []
+    for o in env.obstacles:
+        s = o.shape
+        if isinstance(s, Halfspace):
+            out.append(Obstacle(o.name, "halfspace", normal=tuple(s.normal), offset=s.offset))  # type: ignore[arg-type]
+            continue
+        T = np.eye(4) if o.pose is None else o.pose.as_matrix()
+        out.append(
+            Obstacle(
+                o.name,
+                s.type,
+                size=tuple(getattr(s, "size", ())),
+                radius=float(getattr(s, "radius", 0.0)),
+                length=float(getattr(s, "length", 0.0)),
+                T_base_obstacle=T,
+            )
+        )
+    return out
+
+
+def checker(
+    robot: Robot,
+    env: Environment | None,
+    urdf: str | None = None,
+    field: tuple[str | int, ...] = ("environment",),
+) -> CollisionChecker | None:
+    """The collision checker of a request, or None when there is nothing to check.
+
+    Raises ``InputError`` at the field for an obstacle named like a link and for names in
+    ``allowed_collisions`` that are neither links nor obstacles.
+    """
+    geometry, allowed_self = robot_setup(robot, urdf)
+    env = env or Environment()
+    links = set(robot.frame_names())
+    for i, o in enumerate(env.obstacles):
+        if o.name in links:
+            raise InputError(
+                "an obstacle may not have the name of one of the robot's links",
+                field=(*field, "obstacles", i, "name"),
+            )
+    names = links | {o.name for o in env.obstacles}
+    for i, pair in enumerate(env.allowed_collisions):
+        for j, name in enumerate(pair):
+            if name not in names:
+                raise InputError(
+                    "allowed_collisions names a link or obstacle that does not exist",
+                    field=(*field, "allowed_collisions", i, j),
+                    extra={"links": sorted(links)},
+                )
+    if len(geometry.links) == 0:
+        return None
+    check = CollisionChecker(
+        robot,
+        geometry,
+        obstacles(env),
+        clearance=env.clearance,
+        self_collision=env.self_collision,
+        allowed=[(a, b) for a, b in env.allowed_collisions],
+        allowed_self=allowed_self,
+    )
+    return check if check.n_pairs else None
+
+
+def guard(
+    robot: Robot,
+    env: Environment | None,
+    trajectory: Trajectory,
+    *,
+    urdf: str | None = None,
+    allow_partial: bool = False,
+    s_at: Callable[[float], float] | None = None,
+    field: tuple[str | int, ...] = ("environment",),
+) -> Guarded:
+    """Check ``trajectory`` continuously; raise ``Collision`` or cut it (``allow_partial``).
+
+    Args:
+        robot: The request's robot.
+        env: The request's ``environment`` (None: self-collision only).
+        trajectory: The planned trajectory.
+        urdf: The inline robot's URDF (its ``<collision>`` primitives), None for a shipped robot.
+        allow_partial: Return the clear prefix instead of raising.
+        s_at: Path parameter at a time [s] (Cartesian plans), for the error's ``s``.
+        field: Where the environment sits in the request (for validation errors).
+    """
+    check = checker(robot, env, urdf, field)
+    if check is None:
+        return Guarded(trajectory, {})
+    times, qs = trajectory.times, trajectory.positions
+    ends = check.distances(qs[[0, -1]]) - check.threshold
+    for row, which in ((0, "start"), (1, "goal")):
+        if (ends[row] < 0).any():
+            p = int(np.argmin(ends[row]))
+            a, b = check.pair_names[p]
+            d = float(ends[row, p] + check.threshold[p])
+            t = float(times[0] if row == 0 else times[-1])
+            raise Collision(
+                f"the {which} configuration is in collision: {a} and {b} are {d:.4f} m apart "
+                f"(clearance {float(check.threshold[p]):g} m)",
+                s=None if s_at is None else s_at(t),
+                extra={"time_from_start": t, "links": [a, b], "distance": d, "at": which},
+            )
+    result = check.check_path(times, qs)
+    diag: dict[str, Any] = {
+        "min_clearance": float(result.min_clearance),
+        "closest": None
+        if result.closest is None
+        else {"links": list(result.closest[0]), "time_from_start": float(result.closest[1])},
+    }
+    if check.geometry.unchecked_links:
+        diag["collision_warnings"] = [
+            f"link {n} has only mesh collision geometry: it is not checked"
+            for n in check.geometry.unchecked_links
+        ]
+    c = result.contact
+    if c is None:
+        return Guarded(trajectory, diag)
+    s = None if s_at is None else s_at(c.time)
+    err = Collision(
+        f"{c.links[0]} comes within {c.distance:.4f} m of {c.links[1]} at t = {c.time:.4f} s",
+        s=s,
+        extra={"time_from_start": c.time, "links": list(c.links), "distance": c.distance},
+    )
+    if not allow_partial:
+        raise err
+    k = c.index + 1  # rows 0..index: the motion up to the start of the contact segment is clear
+    prefix = Trajectory(
+        times[:k],
+        qs[:k],
+        trajectory.velocities[:k],
+        trajectory.accelerations[:k],
+        trajectory.joint_names,
+    )
+    fraction = float(times[k - 1] / times[-1]) if times[-1] > 0 else 0.0
+    return Guarded(prefix, diag, err, fraction)
+
+
+def guard_cartesian(
+    task: Any,
+    result: Any,
+    env: Environment | None,
+    urdf: str | None,
+    field: tuple[str | int, ...] = ("environment",),
+) -> Any:
+    """``guard`` for a ``CartesianResult``: ``s`` from the tool's projection on the line; with
+    ``allow_partial`` the result's trajectory, ``fraction`` and ``failure`` are replaced."""
+    robot = task.robot
+    p0 = robot.fk(task.q_start)[:3, 3]
+    axis = task.T_goal[:3, 3] - p0
+    length2 = float(axis @ axis)
+    traj = result.trajectory
+
+    def s_at(t: float) -> float:
+        if length2 < 1e-18:  # pure rotation: s by time
+            return float(np.clip(t / max(float(traj.times[-1]), 1e-12), 0.0, 1.0))
+        q = np.array([np.interp(t, traj.times, traj.positions[:, j]) for j in range(robot.dof)])
+        return float(np.clip((robot.fk(q)[:3, 3] - p0) @ axis / length2, 0.0, 1.0))
+
+    g = guard(
+        robot, env, traj, urdf=urdf, allow_partial=bool(task.allow_partial), s_at=s_at, field=field
+    )
+    diagnostics = {**result.diagnostics, **g.diagnostics}
+    if g.failure is None:
+        return dataclasses.replace(result, diagnostics=diagnostics)
+    last = float(g.trajectory.times[-1])
+    return dataclasses.replace(
+        result,
+        trajectory=g.trajectory,
+        fraction=min(float(result.fraction), s_at(last)),
+        failure=g.failure,
+        diagnostics=diagnostics,
+    )
+
+
+def inline_urdf(robot_ref: Any) -> str | None:
+    """The URDF text of an inline robot reference, None for a registered name."""
+    return getattr(robot_ref, "urdf", None) if not isinstance(robot_ref, str) else None
+
+
+def guard_request(body: Any, trajectory: Trajectory) -> Guarded:
+    """``guard`` for a joint-space request (``robot``, ``environment``, optional ``allow_partial``):
+    nothing to check without a robot; an environment without a robot is 422 at the field."""
+    env = getattr(body, "environment", None)
+    if body.robot is None:
+        if env is not None:
+            raise InputError("an environment needs a robot", field=("environment",))
+        return Guarded(trajectory, {})
+    robot = registry.resolve(body.robot)
+    return guard(
+        robot,
+        env,
+        trajectory,
+        urdf=inline_urdf(body.robot),
+        allow_partial=bool(getattr(body, "allow_partial", False)),
+    )
+
+
+def guard_program(result: Any, robot: Robot, body: Any) -> Any:
+    """``guard`` for a motion program (``ProgramResult``): a contact names its ``segment`` and ``s``
+    within it (LIN: the tool's projection on the segment's line between its start and end; PTP and
+    CIRC: the share of the segment's time); with ``allow_partial`` the program up to the contact."""
+    traj = result.trajectory
+    segments = [s for s in result.segments if s.end_time > s.start_time]
+
+    def segment_at(t: float) -> Any:
+        before = [s for s in segments if s.start_time <= t + 1e-12]
+        return before[-1] if before else (segments[0] if segments else None)
+
+    def q_at(t: float) -> np.ndarray:
+        return np.array([np.interp(t, traj.times, traj.positions[:, j]) for j in range(robot.dof)])
+
+    def s_at(t: float) -> float | None:
+        seg = segment_at(t)
+        if seg is None:
+            return None
+        span = seg.end_time - seg.start_time
+        share = float(np.clip((t - seg.start_time) / span, 0.0, 1.0))
+        if seg.type != "lin":
+            return share
+        p0, p1 = robot.fk(q_at(seg.start_time))[:3, 3], robot.fk(q_at(seg.end_time))[:3, 3]
+        axis = p1 - p0
+        if float(axis @ axis) < 1e-18:
+            return share
+        return float(np.clip((robot.fk(q_at(t))[:3, 3] - p0) @ axis / (axis @ axis), 0.0, 1.0))
+
+    try:
+        g = guard(
+            robot,
+            body.environment,
+            traj,
+            urdf=inline_urdf(body.robot),
+            allow_partial=bool(body.allow_partial),
+            s_at=s_at,
+        )
+    except Collision as err:
+        seg = segment_at(float(err.extra["time_from_start"]))
+        err.extra["segment"] = None if seg is None else seg.index
+        raise
+    diagnostics = {**result.diagnostics, **g.diagnostics}
+    if g.failure is None:
+        return dataclasses.replace(result, diagnostics=diagnostics)
+    seg = segment_at(float(g.failure.extra["time_from_start"]))
+    g.failure.extra["segment"] = None if seg is None else seg.index
+    n = max(len(result.segments), 1)
+    return dataclasses.replace(
+        result,
+        trajectory=g.trajectory,
+        fraction=min(float(result.fraction), (0 if seg is None else seg.index) / n),
+        failure=g.failure,
+        diagnostics=diagnostics,
+    )

@@ -1,0 +1,414 @@
+"""The environment through the API: first contact of a LIN against a ball and a table (s against a
+closed form), a joint move through an obstacle, start/goal in collision, partial plans, the distance
+endpoints, and every bad-input rule of API.md "Environment and collisions"."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from robots import registry
+from robots.geometry import ROBOT_GEOMETRY
+from service.app import create_app
+from service.routes.collision import collision_description
+from service.schemas.common import Pose
+from tests.service.helpers import problem
+
+UR5 = registry.get("ur5")
+HOME = UR5.home.tolist()
+IDENTITY = [0.0, 0.0, 0.0, 1.0]
+TABLE = {"name": "table", "shape": {"type": "halfspace", "normal": [0, 0, 1], "offset": 0.0}}
+
+
+@pytest.fixture(scope="module")
+def client() -> TestClient:
+    return TestClient(create_app())
+
+
+def ball(name: str, center, radius: float) -> dict:
+    return {
+        "name": name,
+        "shape": {"type": "sphere", "radius": radius},
+        "pose": {"position": list(map(float, center)), "orientation": IDENTITY},
+    }
+
+
+def tool_capsule(q) -> tuple[np.ndarray, np.ndarray, float]:
+    """The UR5 tool capsule (wrist_3_link) in the base frame, placed by pinocchio."""
+    (c,) = [c for c in ROBOT_GEOMETRY["ur5"].capsules if c.link == "wrist_3_link"]
+    T = UR5.frame_pose(np.asarray(q), "wrist_3_link")
+    return T[:3, :3] @ np.array(c.a) + T[:3, 3], T[:3, :3] @ np.array(c.b) + T[:3, 3], c.radius
+
+
+def point_segment(p, a, b) -> float:
+    d = b - a
+    t = float(np.clip((p - a) @ d / (d @ d), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * d)))
+
+
+def lin_body(offset, **extra) -> dict:
+    T0 = UR5.fk(UR5.home)
+    T1 = T0.copy()
+    T1[:3, 3] += offset
+    goal = Pose.from_matrix(T1).model_dump()
+    return {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "goal": {"pose": goal},
+        "method": "sampled",
+        **extra,
+    }
+
+
+def first_touch_s(distance_at) -> float:
+    """The smallest s in [0, 1] (to 1e-5) where ``distance_at(s) <= 0``, by a dense scan."""
+    s = np.linspace(0.0, 1.0, 100_001)
+    d = np.array([distance_at(x) for x in s[::100]])  # coarse, then fine near the crossing
+    k = int(np.argmax(d <= 0))
+    fine = s[max(0, (k - 1) * 100) : k * 100 + 1]
+    df = np.array([distance_at(x) for x in fine])
+    return float(fine[int(np.argmax(df <= 0))])
+
+
+def test_lin_into_a_ball_fails_where_the_tool_capsule_first_touches_it(client) -> None:
+    offset = np.array([0.0, 0.3, 0.0])
+    p0 = UR5.fk(UR5.home)[:3, 3]
+    center, R = p0 + 0.7 * offset, 0.03
+    body = lin_body(offset, environment={"obstacles": [ball("ball", center, R)]})
+    err = problem(client.post("/v1/trajectories/cartesian", json=body), 422, "collision")
+    assert err["links"] == ["wrist_3_link", "ball"]
+    a0, b0, r = tool_capsule(UR5.home)
+    # orientation is constant on this line: the capsule translates with the tool point
+    s_star = first_touch_s(
+        lambda s: point_segment(center, a0 + s * offset, b0 + s * offset) - r - R
+    )
+    assert err["s"] == pytest.approx(s_star, abs=0.01)
+    assert err["distance"] <= 0 and err["time_from_start"] > 0
+
+
+def test_lin_down_through_a_table_is_a_goal_collision(client) -> None:
+    body = lin_body(np.array([0.0, 0.0, -0.23]), environment={"obstacles": [TABLE]})
+    assert UR5.fk(UR5.home)[2, 3] - 0.23 < 0  # the goal is below the table top
+    err = problem(client.post("/v1/trajectories/cartesian", json=body), 422, "collision")
+    assert err["links"] == ["wrist_3_link", "table"] and err["at"] == "goal"
+    assert "goal" in err["detail"] and err["s"] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_allow_partial_returns_the_clear_prefix(client) -> None:
+    offset = np.array([0.0, 0.3, 0.0])
+    center, R = UR5.fk(UR5.home)[:3, 3] + 0.7 * offset, 0.03
+    body = lin_body(
+        offset, environment={"obstacles": [ball("ball", center, R)]}, allow_partial=True
+    )
+    resp = client.post("/v1/trajectories/cartesian", json=body)
+    assert resp.status_code == 200, resp.text
+    doc = resp.json()
+    failure = doc["diagnostics"]["failure"]
+    assert failure["code"] == "collision"
+    assert doc["diagnostics"]["fraction"] <= failure["s"] + 1e-9 < 1.0
+    assert doc["diagnostics"]["fraction"] > failure["s"] - 0.05
+    a, b, r = tool_capsule(doc["points"][-1]["positions"])
+    assert point_segment(center, a, b) - r - R >= 0
+
+
+def test_joint_goal_below_the_table_is_a_goal_collision(client) -> None:
+    goal = np.array(HOME)
+    goal[1] += 0.9  # shoulder lift down: the tool goes below the table top
+    assert UR5.fk(goal)[2, 3] < 0
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "goal": {"positions": goal.tolist()},
+        "profile": "quintic",
+        "environment": {"obstacles": [TABLE]},
+    }
+    err = problem(client.post("/v1/trajectories/joint", json=body), 422, "collision")
+    assert "goal" in err["detail"] and err["at"] == "goal"
+    assert err["links"][1] == "table"
+    body["start"], body["goal"] = body["goal"], body["start"]
+    err = problem(client.post("/v1/trajectories/joint", json=body), 422, "collision")
+    assert "start" in err["detail"] and err["at"] == "start"
+
+
+def test_joint_move_through_an_obstacle_between_clear_ends(client) -> None:
+    """Two returned points only (samples=2): both clear; the continuous check still finds the ball
+    that the middle of the swing passes through."""
+    q0 = np.array(HOME)
+    q1 = q0.copy()
+    q1[0] += 2.0
+    center = UR5.fk((q0 + q1) / 2)[:3, 3]
+    body = {
+        "robot": "ur5",
+        "start": {"positions": q0.tolist()},
+        "goal": {"positions": q1.tolist()},
+        "profile": "linear",
+        "duration": 2.0,
+        "samples": 2,
+        "environment": {"obstacles": [ball("ball", center, 0.05)]},
+    }
+    err = problem(client.post("/v1/trajectories/joint", json=body), 422, "collision")
+    assert err["links"][1] == "ball" and 0 < err["time_from_start"] < 1.0
+    body["environment"]["obstacles"][0]["pose"]["position"][2] += 1.0  # lift it out of the way
+    doc = client.post("/v1/trajectories/joint", json=body).json()
+    assert doc["diagnostics"]["min_clearance"] > 0
+    assert doc["diagnostics"]["closest"]["links"][0] in {
+        c.link for c in ROBOT_GEOMETRY["ur5"].capsules
+    }
+
+
+def test_min_clearance_equals_an_independent_distance(client) -> None:
+    goal = np.array(HOME)
+    goal[0] += 0.3
+    center, R = UR5.fk(goal)[:3, 3] + [0.0, 0.0, -0.15], 0.05  # under the tool at the goal
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "goal": {"positions": goal.tolist()},
+        "profile": "quintic",
+        "environment": {"obstacles": [ball("ball", center, R)], "self_collision": False},
+    }
+    doc = client.post("/v1/trajectories/joint", json=body).json()
+    ref = min(
+        point_segment(center, *tool_capsule(p["positions"])[:2])
+        - tool_capsule(p["positions"])[2]
+        - R
+        for p in doc["points"]
+    )
+    assert doc["diagnostics"]["closest"]["links"] == ["wrist_3_link", "ball"]
+    assert doc["diagnostics"]["min_clearance"] == pytest.approx(ref, abs=1e-6)
+
+
+def test_panda_self_collision_through_the_api(client) -> None:
+    panda = registry.get("panda")
+    goal = np.array([0.0, 1.5, 0.0, -0.3, 0.0, 3.5, 0.0])  # folds the wrist back into the arm
+    resp = client.post("/v1/robots/panda/distance", json={"positions": goal.tolist()})
+    assert resp.status_code == 200
+    assert resp.json()["min_distance"] < 0
+    body = {
+        "robot": "panda",
+        "start": {"positions": panda.home.tolist()},
+        "goal": {"positions": goal.tolist()},
+        "profile": "quintic",
+    }
+    err = problem(client.post("/v1/trajectories/joint", json=body), 422, "collision")
+    assert all(n.startswith("panda_link") for n in err["links"]) and err["at"] == "goal"
+    body["environment"] = {"self_collision": False}
+    assert client.post("/v1/trajectories/joint", json=body).status_code == 200
+
+
+def test_self_collision_is_checked_without_environment(client) -> None:
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "goal": {"positions": (np.array(HOME) + 0.2).tolist()},
+        "profile": "quintic",
+    }
+    doc = client.post("/v1/trajectories/joint", json=body).json()
+    assert doc["diagnostics"]["min_clearance"] > 0
+    body.pop("robot")
+    body["limits"] = {"velocity": [1.0] * 6, "acceleration": [1.0] * 6}
+    doc = client.post("/v1/trajectories/joint", json=body).json()
+    assert "min_clearance" not in doc["diagnostics"]
+
+
+def test_spline_and_compare_carry_the_environment(client) -> None:
+    body = {
+        "robot": "ur5",
+        "waypoints": [HOME, [0.2, *HOME[1:]], [0.4, *HOME[1:]]],
+        "boundary": "natural",
+        "environment": {"obstacles": [{**TABLE, "shape": {**TABLE["shape"], "offset": -0.05}}]},
+    }
+    resp = client.post("/v1/trajectories/spline", json=body)
+    assert resp.status_code == 200, resp.text
+    assert resp.json()["diagnostics"]["min_clearance"] > 0
+    offset = np.array([0.0, 0.0, -0.23])
+    task = lin_body(offset, environment={"obstacles": [TABLE]})
+    task.pop("method")
+    resp = client.post("/v1/compare", json={"task": task, "methods": ["sampled"]})
+    row = resp.json()["results"][0]
+    assert not row["ok"] and row["error"]["code"] == "collision"
+
+
+def test_distance_endpoint_against_a_closed_form(client) -> None:
+    center, R = np.array([0.3, -0.3, 0.5]), 0.1
+    body = {"positions": HOME, "environment": {"obstacles": [ball("ball", center, R), TABLE]}}
+    doc = client.post("/v1/robots/ur5/distance", json=body).json()
+    pairs = doc["pairs"]
+    assert 0 < len(pairs) <= 20
+    d = [p["distance"] for p in pairs]
+    assert d == sorted(d) and doc["min_distance"] == d[0]
+    for p in pairs:
+        a, b = np.array(p["points"])
+        if p["distance"] > 0:
+            assert np.linalg.norm(a - b) == pytest.approx(p["distance"], abs=1e-6)
+    assert client.post("/v1/distance", json={**body, "robot": "ur5"}).json() == doc
+    only = {"positions": HOME, "environment": {"obstacles": [ball("ball", center, R)]}}
+    only["environment"]["self_collision"] = False
+    pairs = client.post("/v1/robots/ur5/distance", json=only).json()["pairs"]
+    assert (
+        len(pairs) == len(set(c.link for c in ROBOT_GEOMETRY["ur5"].capsules)) - 1
+    )  # not the base
+    (w3,) = [p for p in pairs if p["links"] == ["wrist_3_link", "ball"]]
+    a, b, r = tool_capsule(HOME)
+    assert w3["distance"] == pytest.approx(point_segment(center, a, b) - r - R, abs=1e-6)
+
+
+def test_inline_urdf_collision_primitives_and_mesh_warning(client) -> None:
+    urdf = """<robot name="arm">
+      <link name="base"/>
+      <link name="l1"><collision><origin xyz="0.25 0 0"/><geometry><box size="0.5 0.06 0.06"/>
+        </geometry></collision></link>
+      <link name="l2"><collision><geometry><mesh filename="l2.stl"/></geometry></collision></link>
+      <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+        <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+      <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+        <origin xyz="0.5 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+    </robot>"""
+    robot = {"urdf": urdf, "tip_frame": "l2", "base_frame": "base"}
+    body = {
+        "robot": robot,
+        "positions": [0.0, 0.0],
+        "environment": {"obstacles": [ball("ball", [0.25, 0.5, 0.0], 0.1)]},
+    }
+    doc = client.post("/v1/distance", json=body).json()
+    (pair,) = doc["pairs"]
+    assert pair["links"] == ["l1", "ball"]
+    # the box is enclosed by a capsule: the reported distance is conservative, <= the box's 0.37
+    assert 0.3 < pair["distance"] <= 0.5 - 0.03 - 0.1 + 1e-9
+    plan = {
+        "robot": robot,
+        "start": {"positions": [0.0, 0.0]},
+        "goal": {"positions": [0.5, 0.0]},
+        "profile": "quintic",
+        "environment": {"obstacles": [ball("ball", [0.25, 0.5, 0.0], 0.1)]},
+    }
+    doc = client.post("/v1/trajectories/joint", json=plan).json()
+    assert any("l2" in w for w in doc["diagnostics"]["collision_warnings"])
+
+
+def environment_error(client, env: dict, status: int = 422) -> dict:
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "goal": {"positions": HOME},
+        "profile": "quintic",
+        "duration": 1.0,
+        "environment": env,
+    }
+    return problem(client.post("/v1/trajectories/joint", json=body), status, "validation")
+
+
+def locs(err: dict) -> list[list]:
+    return [e["loc"] for e in err["errors"]]
+
+
+def test_bad_environments_are_422_at_the_field(client) -> None:
+    sphere = ball("a", [1, 1, 1], 0.1)
+    err = environment_error(client, {"obstacles": [sphere, sphere]})
+    assert any("obstacles" in loc for loc in locs(err))
+    err = environment_error(client, {"obstacles": [sphere], "allowed_collisions": [["a", "nope"]]})
+    assert ["body", "environment", "allowed_collisions", 0, 1] in locs(err)
+    err = environment_error(client, {"obstacles": [ball("wrist_3_link", [1, 1, 1], 0.1)]})
+    assert ["body", "environment", "obstacles", 0, "name"] in locs(err)
+    for shape in (
+        {"type": "sphere", "radius": 0.0},
+        {"type": "box", "size": [0.1, -0.1, 0.1]},
+        {"type": "cylinder", "radius": 0.1, "length": 0.0},
+        {"type": "capsule", "radius": -1.0, "length": 0.1},
+    ):
+        err = environment_error(client, {"obstacles": [{"name": "x", "shape": shape}]})
+        assert any(loc[:4] == ["body", "environment", "obstacles", 0] for loc in locs(err))
+    off = {"name": "h", "shape": {"type": "halfspace", "normal": [0, 0, 1.01], "offset": -1.0}}
+    err = environment_error(client, {"obstacles": [off]})
+    assert any("normal" in loc for loc in locs(err))
+    with_pose = {**TABLE, "pose": {"position": [0, 0, 0], "orientation": IDENTITY}}
+    environment_error(client, {"obstacles": [with_pose]})
+    many = [ball(f"b{i}", [2 + i, 2, 2], 0.1) for i in range(257)]
+    err = environment_error(client, {"obstacles": many})
+    assert ["body", "environment", "obstacles"] in locs(err)
+    err = environment_error(client, {"clearance": -0.1})
+    problem(
+        client.post(
+            "/v1/trajectories/joint",
+            json={
+                "start": {"positions": [0.0]},
+                "goal": {"positions": [1.0]},
+                "limits": {"velocity": [1.0], "acceleration": [1.0]},
+                "environment": {},
+            },
+        ),
+        422,
+        "validation",
+    )
+
+
+def test_a_nearly_unit_normal_is_normalized(client) -> None:
+    tilted = {"name": "t", "shape": {"type": "halfspace", "normal": [0, 0, 1.0005], "offset": -0.5}}
+    body = {"positions": HOME, "environment": {"obstacles": [tilted], "self_collision": False}}
+    doc = client.post("/v1/robots/ur5/distance", json=body).json()
+    exact = {"name": "t", "shape": {"type": "halfspace", "normal": [0, 0, 1], "offset": -0.5}}
+    body["environment"]["obstacles"] = [exact]
+    assert client.post("/v1/robots/ur5/distance", json=body).json() == doc
+
+
+def test_distance_endpoint_errors(client) -> None:
+    problem(client.post("/v1/robots/nope/distance", json={"positions": HOME}), 404, "unknown_robot")
+    problem(client.post("/v1/robots/ur5/distance", json={"positions": [0.0]}), 422, "validation")
+
+
+def test_collision_description_for_the_robot_resource() -> None:
+    """What GET /v1/robots/{name} should add (the robots route belongs to the ik team)."""
+    doc = collision_description("panda")
+    assert len(doc["collision_geometry"]) == len(ROBOT_GEOMETRY["panda"].capsules)
+    first = doc["collision_geometry"][0]
+    assert first["link"] == "panda_link0" and first["radius"] == 0.06
+    pairs = doc["allowed_self_collisions"]
+    assert ["panda_link1", "panda_link2"] in pairs and ["panda_link5", "panda_link7"] in pairs
+    assert ["panda_link1", "panda_link7"] not in pairs
+
+
+def test_too_many_inline_collision_primitives_is_too_large(client) -> None:
+    spheres = "".join(
+        f'<collision><origin xyz="{0.01 * k} 0 0"/><geometry><sphere radius="0.01"/></geometry>'
+        "</collision>"
+        for k in range(65)
+    )
+    urdf = f"""<robot name="many"><link name="base"/><link name="l1">{spheres}</link>
+      <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+        <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint></robot>"""
+    body = {"robot": {"urdf": urdf, "tip_frame": "l1", "base_frame": "base"}, "positions": [0.0]}
+    err = problem(client.post("/v1/distance", json=body), 422, "too_large")
+    assert err["limit_primitives"] == 64
+
+
+def test_program_collision_names_its_segment_and_s(client) -> None:
+    T0 = UR5.fk(UR5.home)
+    T1, T2 = T0.copy(), T0.copy()
+    T1[:3, 3] += [0.0, 0.0, 0.1]  # first LIN: up, clear
+    T2[:3, 3] = T1[:3, 3] + [0.0, 0.3, 0.0]  # second LIN: sideways into the ball
+    center, R = T1[:3, 3] + [0.0, 0.21, 0.0], 0.03
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "segments": [
+            {"type": "lin", "goal": {"pose": Pose.from_matrix(T1).model_dump()}},
+            {"type": "lin", "goal": {"pose": Pose.from_matrix(T2).model_dump()}},
+        ],
+        "environment": {"obstacles": [ball("ball", center, R)]},
+    }
+    err = problem(client.post("/v1/trajectories/program", json=body), 422, "collision")
+    assert err["segment"] == 1 and err["links"] == ["wrist_3_link", "ball"]
+    a0, b0, r = tool_capsule(UR5.home)
+    lift = np.array([0.0, 0.0, 0.1])
+    offset = np.array([0.0, 0.3, 0.0])
+    s_star = first_touch_s(
+        lambda s: point_segment(center, a0 + lift + s * offset, b0 + lift + s * offset) - r - R
+    )
+    assert err["s"] == pytest.approx(s_star, abs=0.01)
+    body["allow_partial"] = True
+    doc = client.post("/v1/trajectories/program", json=body).json()
+    assert doc["diagnostics"]["failure"]["code"] == "collision"
+    assert doc["diagnostics"]["failure"]["segment"] == 1
+    a, b, r = tool_capsule(doc["points"][-1]["positions"])
+    assert point_segment(center, a, b) - r - R >= 0
