@@ -23,9 +23,11 @@ from core.joint.motion import PointToPoint
 from core.joint.point_to_point import plan_joint
 from core.limits import JointLimits
 from core.program.build import Geometry, build
+from core.program.chunk import ChunkInput, ChunkTiming
 from core.program.report import ProgramResult, SegmentResult, report
+from core.program.s_curve import ShapedSCurve
 from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
-from core.program.timing import ChunkInput, ChunkTiming, ShapedSCurve, time_chunk
+from core.program.timing import time_chunk
 from core.program.validate import layout
 from core.timing.s_curve import SCurveTiming
 from core.trajectory import MAX_POINTS, Peaks, Profile, Trajectory, sample_times
