@@ -162,6 +162,12 @@ class Arc:
         omega = self.R0 @ self.rotvec
         return np.hstack([s_dot[:, None] * self.tangents(s), s_dot[:, None] * omega])
 
+    def derivative(self, s: np.ndarray) -> np.ndarray:
+        """``(N, 6)`` d(pose)/ds at ``s`` (N,): ``[dp/ds (m), R0 rotvec (rad)]`` (the Path Protocol;
+        the linear part turns with s)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        return self.twist(np.ones(s.size), s)
+
     def deviation(
         self, T: np.ndarray, position_tolerance: float = 1e-3, orientation_tolerance: float = 1e-2
     ) -> PathDeviation:
