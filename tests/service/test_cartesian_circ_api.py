@@ -124,7 +124,10 @@ def test_bad_circle_geometry_is_validation_at_path(client) -> None:
     chord_mid = (0.5 * (T0[:3, 3] + Tg[:3, 3])).tolist()
     cases = [
         ({"type": "circ", "interim": chord_mid}, ["body", "path", "interim"]),  # collinear
-        ({"type": "circ", "center": (c + [3e-4, 0, 0]).tolist()}, ["body", "path", "center"]),
+        (
+            {"type": "circ", "center": (c + np.array([3e-4, 0, 0])).tolist()},
+            ["body", "path", "center"],
+        ),
         ({"type": "circ", "interim": T0[:3, 3].tolist()}, ["body", "path", "interim"]),
     ]
     for path, loc in cases:

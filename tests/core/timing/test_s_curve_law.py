@@ -123,7 +123,7 @@ def test_trapezoid_has_jumps_the_s_curve_removes() -> None:
 
 
 def test_s_curve_fixed_duration_is_exact() -> None:
-    task, T0, Tg = _line_task(speed_profile="s_curve", duration=2.0)
+    task, _, Tg = _line_task(speed_profile="s_curve", duration=2.0)
     traj = plan(task, "sampled").trajectory
     assert traj.duration == 2.0
     np.testing.assert_allclose(UR5.fk(traj.positions[-1]), Tg, atol=1e-9)
