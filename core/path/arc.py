@@ -182,6 +182,9 @@ class Arc:
         to_end = phi - self.theta
         to_start = 2.0 * np.pi - phi
         s = np.where(past, np.where(to_end < to_start, 1.0, 0.0), phi / max(self.theta, _EPS))
+        if self.task_space == "position_xy":  # x and y only; orientation does not count
+            position = np.linalg.norm(T[:, :2, 3] - self.positions(s)[:, :2], axis=1)
+            return PathDeviation(s=s, position=position, orientation=np.zeros(len(T)))
         position = np.linalg.norm(T[:, :3, 3] - self.positions(s), axis=1)
         err = np.swapaxes(self.rotation_matrices(s), 1, 2) @ T[:, :3, :3]
         orientation = np.linalg.norm(so3.log(err), axis=1)

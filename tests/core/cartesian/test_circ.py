@@ -189,3 +189,51 @@ def test_centre_within_its_tolerance_is_accepted() -> None:
     task = CartesianTask(robot=UR5, q_start=UR5_HOME, T_goal=Tg, path=PathSpec("circ", center=c))
     traj = plan(task, "sampled").trajectory
     np.testing.assert_allclose(UR5.fk(traj.positions[-1]), Tg, atol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["sampled", "bounded_deviation", "resolved_rate"])
+def test_partial_plan_stays_on_the_circle(method: str) -> None:
+    """An arc that leaves the workspace: the planned prefix (fraction < 1) is on the same circle,
+    its last point at the arc's pose at ``fraction`` (the knot methods re-plan the cut arc)."""
+    T0 = UR5.fk(UR5_HOME)
+    radius = 0.25
+    c = T0[:3, 3] + np.array([-radius, 0.0, 0.0])
+    Tg = T0.copy()
+    Tg[:3, 3] = c + _rz(0.9 * math.pi) @ (T0[:3, 3] - c)
+    task = CartesianTask(
+        robot=UR5,
+        q_start=UR5_HOME,
+        T_goal=Tg,
+        path=PathSpec("circ", center=c),
+        allow_partial=True,
+    )
+    result = plan(task, method)
+    assert 0.3 < result.fraction < 0.7 and result.failure is not None
+    p = UR5.fk_many(dense(result.trajectory.positions))[:, :3, 3]
+    assert np.abs(np.linalg.norm(p - c, axis=1) - radius).max() <= 1e-3
+    assert np.abs(p[:, 2] - c[2]).max() <= 1e-3
+    end = c + _rz(0.9 * math.pi * result.fraction) @ (T0[:3, 3] - c)
+    assert np.linalg.norm(p[-1] - end) <= 1e-3
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_planar_arm_follows_a_circle_in_its_plane(method: str) -> None:
+    """``position_xy``: the circle lies in the arm's plane (an interim point's z is ignored) and
+    only x, y count; the tool point stays on the test's own circle through the three points."""
+    robot = registry.get("planar_2r")
+    q0 = np.array([0.3, 1.2])
+    p0 = robot.fk(q0)[:3, 3]
+    Tg = np.eye(4)
+    Tg[:3, 3] = p0 + np.array([0.3, -0.2, 0.0])
+    interim = p0 + np.array([0.2, 0.0, 7.0])
+    task = CartesianTask(robot=robot, q_start=q0, T_goal=Tg, path=PathSpec("circ", interim=interim))
+    traj = plan(task, method).trajectory
+    # Circumcentre of the three points in the plane (the test's own).
+    a, b, c3 = p0[:2], interim[:2], Tg[:2, 3]
+    A = 2.0 * np.array([b - a, c3 - a])
+    centre = np.linalg.solve(A, [b @ b - a @ a, c3 @ c3 - a @ a])
+    radius = np.linalg.norm(a - centre)
+    p = robot.fk_many(dense(traj.positions))[:, :2, 3]
+    assert np.abs(np.linalg.norm(p - centre, axis=1) - radius).max() <= 1e-3
+    tol = 1e-9 if method in EXACT_END_METHODS else GOAL_FRACTION * 1e-3
+    assert np.linalg.norm(p[-1] - c3) <= tol
