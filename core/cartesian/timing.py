@@ -1,4 +1,6 @@
-"""The timing of a Cartesian line, shared by every Cartesian method: s(t) under the task's limits.
+"""The timing of a Cartesian path (line or arc, ``core.path``), shared by every Cartesian method:
+s(t) under the task's limits. The path's ``length`` [m] and ``angle`` [rad] turn tool limits into
+limits on s.
 
 A Cartesian method decides the path: joint positions q(s) for s in [0, end] (``end`` = 1, or the
 planned fraction of a partial plan) and their derivatives dq/ds, d2q/ds2. ``time_path`` decides, in
@@ -17,6 +19,12 @@ one place for every method, how fast s advances; the path itself never changes:
   where a joint cap binds, and a warning says where and by how much. A cap below
   ``MIN_SPEED_FRACTION`` of the requested path speed is a Type II ``Singularity``: no reasonable
   slow-down keeps the joints within their limits.
+
+``speed_profile="s_curve"`` swaps both laws for the jerk-limited S-curve (``TIMING_LAWS["s_curve"]``:
+continuous s'', path jerk within the tool jerk limits): with ``duration`` the S-curve of exactly that
+duration; otherwise the shortest S-curve under the tool limits and the smallest joint caps on s' and
+|s''| along the path (one bound each, so it is slower than the trapezoid where a joint cap binds
+only locally).
 
 ``sample_path`` then places the returned points (``samples``: equally spaced in s; else one every
 ``sample_period`` seconds) and ``timed_trajectory`` turns q(s) into velocities dq/ds s' and
