@@ -98,6 +98,10 @@ TIME_SCALE_MARGIN = 0.95
 """The path clock slows so the feedforward rates use at most this share of the velocity limits,
 leaving the rest to the feedback term."""
 _CHECK_EVERY = 256
+_SETPOINT_BLOCK = 256
+"""Setpoint poses evaluated per vectorized ``Path.poses`` call."""
+_ON_TICK = 1e-9
+"""A clock time within this share of a tick of it is that tick (rounding of the summed steps)."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
 
@@ -147,17 +151,35 @@ def nominal_timing(task: CartesianTask, line: Path) -> Profile:
 
 
 class _Setpoint:
-    """Pose, unit twist and s on the path at path-clock time tau (s(t) tabulated per tick)."""
+    """Pose, unit twist and s on the path at path-clock time tau (s(t) tabulated per tick).
+
+    At a tick of the grid (the clock runs at full rate) the pose and d(pose)/ds come from a table
+    evaluated ``_SETPOINT_BLOCK`` ticks at a time (one vectorized ``Path.poses`` call per block);
+    between ticks (a time-scaled clock) from ``Path.pose`` at that s. Both are exact."""
 
     def __init__(self, line: Path, timing: Profile, dt: float, n: int):
         grid = np.arange(n + 2) * dt
         self.s, self.sd, self.dt, self.end = timing(grid), timing(grid, 1), dt, n * dt
         self.line = line
+        self._block, self._poses, self._rates = -1, np.zeros((0, 4, 4)), np.zeros((0, 6))
+
+    def _at_tick(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        block, row = divmod(k, _SETPOINT_BLOCK)
+        if block != self._block:
+            s = self.s[block * _SETPOINT_BLOCK : (block + 1) * _SETPOINT_BLOCK]
+            self._block, self._poses = block, self.line.poses(s)
+            self._rates = self.line.derivative(s)
+        return self._poses[row], self._rates[row]
 
     def __call__(self, tau: float) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray]:
         """``(s, s' [1/s], p_d (3,), R_d (3, 3), d(pose)/ds (6,))`` at clock time ``tau`` [s]
         (held after the end)."""
         x = min(tau, self.end) / self.dt
+        k = round(x)
+        if abs(x - k) <= _ON_TICK:
+            k = min(k, len(self.s) - 1)
+            T_d, rate = self._at_tick(k)
+            return float(self.s[k]), float(self.sd[k]), T_d[:3, 3], T_d[:3, :3], rate
         i = min(int(x), len(self.s) - 2)
         w = x - i
         s = float((1.0 - w) * self.s[i] + w * self.s[i + 1])
