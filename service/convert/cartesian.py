@@ -20,7 +20,7 @@ import numpy as np
 
 from core.budget import Deadline
 from core.cartesian.plan import plan
-from core.cartesian.task import CartesianResult, CartesianTask
+from core.cartesian.task import CartesianResult, CartesianTask, PathSpec
 from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
@@ -31,7 +31,8 @@ _SAME_NAMED = tuple(
     sorted(
         {f.name for f in dataclasses.fields(CartesianTask)}
         & set(CartesianTaskSpec.model_fields)
-        - {"robot"}  # the request names it; the task holds the resolved model
+        - {"robot", "path"}  # the request names the robot (the task holds the resolved model);
+        # the path shape becomes a ``PathSpec``
     )
 )
 """Request fields passed to ``CartesianTask`` as they are (same name, same units): the timing,
@@ -91,7 +92,14 @@ def task_from_spec(
             f"samples={spec.samples} exceeds the limit of {max_points} points", field=("samples",)
         )
     same_named = {name: getattr(spec, name) for name in _SAME_NAMED}
-    return CartesianTask(
+    shape = spec.path
+    path = PathSpec(
+        kind=shape.type,
+        interim=None if shape.interim is None else np.asarray(shape.interim, dtype=float),
+        center=None if shape.center is None else np.asarray(shape.center, dtype=float),
+    )
+    task = CartesianTask(
+        path=path,
         robot=robot,
         q_start=q_start,
         T_goal=T_goal,
@@ -101,6 +109,8 @@ def task_from_spec(
         deadline=deadline,
         **same_named,
     )
+    task.line()  # bad circle geometry: 422 validation at path.* before any method runs
+    return task
 
 
 def run(
