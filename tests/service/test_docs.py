@@ -1,0 +1,361 @@
+"""The project's own docs keep up with the code: docs/api.md documents every endpoint the live app
+serves (``/openapi.json`` and the routes left out of it) and every error ``code`` the service can
+answer, with its HTTP status; README.md and docs/ never point at files a user of the project does not
+have (``../shared``), and their relative links resolve.
+
+Built from the live app (``service.app.create_app``) and from ``service/errors.py``'s table, never
+from a hard-coded list, so a new route or error class fails here until docs/api.md describes it. The
+reverse is not checked: the contract may describe more than one branch serves.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fastapi.routing import APIRoute
+from fastapi.testclient import TestClient
+
+from core import errors as core_errors
+from robots import registry
+from service import errors as service_errors
+from service.app import create_app
+from service.settings import Settings
+
+ROOT = Path(__file__).resolve().parents[2]
+API_MD = ROOT / "docs" / "api.md"
+HTTP_METHODS = ("GET", "POST", "PUT", "PATCH", "DELETE")
+ENDPOINT = re.compile(r"\b(" + "|".join(HTTP_METHODS) + r")\s+(/[^\s`,;)]*)")
+CODE_ROW = re.compile(r"^\|\s*`([a-z_]+)`\s*\|([^|]*)\|")
+LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
+PENDING_DOCS = {"docs/architecture.md"}
+"""Docs another team writes in this same release: a README link to one of them may dangle until
+the branches are merged; once the file exists, the link is checked like every other."""
+
+
+@pytest.fixture(scope="module")
+def app():
+    return create_app(Settings(max_body_bytes=64))
+
+
+@pytest.fixture(scope="module")
+def client(app) -> TestClient:
+    return TestClient(app)
+
+
+def api_text() -> str:
+    return API_MD.read_text(encoding="utf-8")
+
+
+def documented_endpoints(text: str) -> set[tuple[str, str]]:
+    """(METHOD, path) named in a heading of docs/api.md: every endpoint has its own section."""
+    headings = (line for line in text.splitlines() if line.startswith("#"))
+    return {(m, p) for line in headings for m, p in ENDPOINT.findall(line)}
+
+
+def section(text: str, heading: str) -> str:
+    """The text under the Markdown heading ``heading`` up to the next heading of its level or above."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.strip() == heading)
+    level = len(heading) - len(heading.lstrip("#"))
+    end = next(
+        (
+            i
+            for i in range(start + 1, len(lines))
+            if lines[i].startswith("#") and len(lines[i]) - len(lines[i].lstrip("#")) <= level
+        ),
+        len(lines),
+    )
+    return "\n".join(lines[start + 1 : end])
+
+
+def documented_codes(text: str) -> dict[str, str]:
+    """``code`` -> its HTTP status cell, from the table under "### Error codes"."""
+    rows: dict[str, str] = {}
+    for line in section(text, "### Error codes").splitlines():
+        match = CODE_ROW.match(line)
+        if match:
+            assert match.group(1) not in rows, f"code {match.group(1)} has two rows"
+            rows[match.group(1)] = match.group(2)
+    return rows
+
+
+def planning_error_classes() -> set[type[core_errors.PlanningError]]:
+    """Every PlanningError subclass that is imported anywhere, plus the table's classes."""
+    found: set[type[core_errors.PlanningError]] = set(service_errors.STATUS)
+    stack = [core_errors.PlanningError]
+    while stack:
+        cls = stack.pop()
+        found.add(cls)
+        stack.extend(cls.__subclasses__())
+    return found
+
+
+def literal_service_codes() -> set[str]:
+    """Codes the service writes directly: the second argument of every ``problem_body(...)`` call
+    and every string a variable named ``code`` is given, in service/**/*.py (parsed, not grepped)."""
+    codes: set[str] = set()
+    for path in (ROOT / "service").rglob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call):
+                name = getattr(node.func, "id", getattr(node.func, "attr", None))
+                if name == "problem_body" and len(node.args) >= 2:
+                    arg = node.args[1]
+                    if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                        codes.add(arg.value)
+            elif isinstance(node, ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "code" for t in node.targets
+            ):
+                codes.update(
+                    n.value
+                    for n in ast.walk(node.value)
+                    if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                )
+    return codes
+
+
+# --- endpoints ---------------------------------------------------------------------------------
+
+
+def test_every_openapi_endpoint_is_documented(client: TestClient) -> None:
+    schema = client.get("/openapi.json").json()
+    served = {
+        (method.upper(), path)
+        for path, operations in schema["paths"].items()
+        for method in operations
+        if method.upper() in HTTP_METHODS
+    }
+    assert len(served) >= 10, served  # the round-1 routes at least: the schema was read
+    missing = sorted(served - documented_endpoints(api_text()))
+    assert not missing, f"docs/api.md has no section for: {missing}"
+
+
+def test_every_route_outside_openapi_is_documented(app) -> None:
+    """/metrics, the playground page and its static files are not in /openapi.json; a user still
+    reaches them, so they are documented too."""
+    hidden = {
+        (method, path)
+        for path, route in api_routes(app.routes)
+        if not route.include_in_schema
+        for method in route.methods
+        if method in HTTP_METHODS
+    }
+    assert ("GET", "/metrics") in hidden, hidden
+    missing = sorted(hidden - documented_endpoints(api_text()))
+    assert not missing, f"docs/api.md has no section for: {missing}"
+
+
+def api_routes(routes: list, prefix: str = "") -> Iterator[tuple[str, APIRoute]]:
+    """(full path, route) of every APIRoute, also inside included routers (FastAPI >= 0.16x keeps
+    them as ``_IncludedRouter`` entries holding the ``original_router``)."""
+    for route in routes:
+        if isinstance(route, APIRoute):
+            yield prefix + route.path, route
+        elif hasattr(route, "original_router"):
+            yield from api_routes(
+                route.original_router.routes, prefix + route.include_context.prefix
+            )
+
+
+def test_endpoint_parser_reads_headings_only() -> None:
+    text = "## `POST /v1/x/{name}/fk`, `GET /v1/y`\nPOST /v1/not-a-heading\n### GET /\n"
+    assert documented_endpoints(text) == {
+        ("POST", "/v1/x/{name}/fk"),
+        ("GET", "/v1/y"),
+        ("GET", "/"),
+    }
+
+
+# --- error codes -------------------------------------------------------------------------------
+
+
+def test_every_error_class_code_is_documented_with_its_status() -> None:
+    rows = documented_codes(api_text())
+    for cls in planning_error_classes():
+        assert cls.code in rows, f"error code {cls.code!r} ({cls.__name__}) is not in docs/api.md"
+    for cls, status in service_errors.STATUS.items():
+        cell = rows[cls.code]
+        assert re.search(rf"\b{status}\b", cell), (
+            f"docs/api.md gives {cls.code!r} the status {cell.strip()!r}; service/errors.py: {status}"
+        )
+
+
+def test_every_code_the_service_writes_is_documented() -> None:
+    literal = literal_service_codes()
+    assert {"validation", "too_large", "not_ready"} <= literal, literal  # the scan found them
+    missing = sorted(literal - documented_codes(api_text()).keys())
+    assert not missing, f"docs/api.md has no row for the codes: {missing}"
+
+
+@pytest.mark.parametrize(
+    ("method", "url", "content"),
+    [
+        ("GET", "/no/such/route", None),
+        ("DELETE", "/health", None),
+        ("POST", "/v1/trajectories/joint", b"{not json"),
+        ("POST", "/v1/trajectories/joint", b"[" + b"0," * 64 + b"0]"),
+        ("GET", "/v1/robots/no_such_robot", None),
+    ],
+)
+def test_live_error_answers_have_documented_codes(
+    client: TestClient, method: str, url: str, content: bytes | None
+) -> None:
+    """Errors the HTTP layer makes (unknown route, method, malformed JSON, a body over the limit)
+    carry a code of the table, whatever code the service chooses for them."""
+    response = client.request(
+        method, url, content=content, headers={"content-type": "application/json"}
+    )
+    assert 400 <= response.status_code < 500, response.text
+    assert response.headers["content-type"].startswith("application/problem+json")
+    code = response.json()["code"]
+    assert code in documented_codes(api_text()), f"{method} {url} answered undocumented {code!r}"
+
+
+def test_code_table_parser() -> None:
+    text = "### Error codes\n\n| Code | HTTP | When |\n|---|---|---|\n| `a_b` | 422 | x |\n## Next\n| `c` | 1 | y |\n"
+    assert documented_codes(text) == {"a_b": " 422 "}
+
+
+# --- README and links --------------------------------------------------------------------------
+
+
+def project_docs() -> list[Path]:
+    return [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def test_docs_never_point_at_files_outside_the_project() -> None:
+    for path in project_docs():
+        text = path.read_text(encoding="utf-8")
+        for outside in ("../shared", "/work/shared"):
+            assert outside not in text, f"{path.relative_to(ROOT)} mentions {outside}"
+
+
+def test_readme_links_the_project_docs() -> None:
+    targets = set(LINK.findall((ROOT / "README.md").read_text(encoding="utf-8")))
+    for doc in ("docs/api.md", "docs/architecture.md", "docs/robots.md"):
+        assert doc in targets, f"README.md does not link {doc}"
+
+
+@pytest.mark.parametrize("path", project_docs(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_resolve(path: Path) -> None:
+    text = path.read_text(encoding="utf-8")
+    anchors = {slug(line.lstrip("#")) for line in text.splitlines() if line.startswith("#")}
+    for target in LINK.findall(text):
+        if re.match(r"^[a-z]+:", target):
+            continue  # http(s), mailto
+        file, _, anchor = target.partition("#")
+        if not file:
+            assert anchor in anchors, f"{path.name}: no heading for #{anchor}"
+            continue
+        resolved = (path.parent / file).resolve()
+        relative = resolved.relative_to(ROOT).as_posix() if resolved.is_relative_to(ROOT) else file
+        if relative in PENDING_DOCS and not resolved.exists():
+            continue
+        assert resolved.exists(), f"{path.name} links {target}, which does not exist"
+
+
+def slug(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    text = re.sub(r"[^\w\- ]", "", heading.strip().lower())
+    return text.replace(" ", "-")
+
+
+def test_slug() -> None:
+    assert slug(" `POST /v1/trajectories/joint`") == "post-v1trajectoriesjoint"
+    assert slug(" Inline robots (URDF)") == "inline-robots-urdf"
+
+
+# --- docs/robots.md against the registry ---------------------------------------------------------
+
+ROBOTS_MD = ROOT / "docs" / "robots.md"
+DH_ROW = re.compile(r"^\|\s*(\d+|flange)\s*\|([^|]+)\|([^|]+)\|([^|]+)\|\s*$")
+LIMIT_ROW = re.compile(
+    r"^\|\s*(\d+)\s*\|\s*`([^`]+)`\s*\|\s*\[([^,\]]+),([^\]]+)\]\s*\|[^|]*\|([^|]+)\|([^|]+)\|"
+)
+
+
+def number(text: str) -> float:
+    """A table cell: a decimal number or a multiple of pi written ``pi/2``, ``-pi``, ``2 pi/3``."""
+    text = text.strip()
+    match = re.fullmatch(r"(-?)(\d*\.?\d*)\s*pi(?:/(\d+))?", text)
+    if match is None:
+        return float(text)
+    sign, factor, divisor = match.groups()
+    value = (float(factor) if factor else 1.0) * np.pi / (float(divisor) if divisor else 1.0)
+    return -value if sign else value
+
+
+def robot_section(name: str) -> str:
+    heading = next(
+        line for line in ROBOTS_MD.read_text(encoding="utf-8").splitlines()
+        if line.startswith(f"## `{name}`")
+    )  # fmt: skip
+    return section(ROBOTS_MD.read_text(encoding="utf-8"), heading)
+
+
+def dh_table(text: str) -> tuple[str, list[tuple[str, float, float, float]]]:
+    """Convention (``standard`` or ``modified``) and rows (i, a, d, alpha) of the DH table."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("DH parameters ("))
+    convention = lines[start].split("(")[1].split(")")[0].split(";")[0].strip()
+    rows = []
+    for line in lines[start + 1 :]:
+        if line.strip() and not line.startswith("|"):
+            break
+        match = DH_ROW.match(line)
+        if match:
+            rows.append((match.group(1), *(number(g) for g in match.groups()[1:])))
+    return convention, rows
+
+
+def dh_fk(convention: str, rows: list, q: np.ndarray) -> np.ndarray:
+    """T_base_tool (4, 4) of DH ``rows`` at joint values ``q`` (theta_i = q_i; ``flange`` fixed)."""
+    T = np.eye(4)
+    joints = iter(q)
+    for label, a, d, alpha in rows:
+        theta = 0.0 if label == "flange" else next(joints)
+        ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+        if convention == "standard":  # Rz(theta) Tz(d) Tx(a) Rx(alpha)
+            A = [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d]]
+        else:  # modified: Rx(alpha) Tx(a) Rz(theta) Tz(d)
+            A = [[ct, -st, 0, a], [st * ca, ct * ca, -sa, -d * sa], [st * sa, ct * sa, ca, d * ca]]
+        T = T @ np.vstack([A, [0, 0, 0, 1]])
+    return T
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_robots_md_dh_table_reproduces_the_model(name: str) -> None:
+    robot = registry.get(name)
+    convention, rows = dh_table(robot_section(name))
+    assert convention in ("standard", "modified"), convention
+    assert sum(label != "flange" for label, *_ in rows) == robot.dof, rows
+    rng = np.random.default_rng(13)
+    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
+    for q in rng.uniform(lo, hi, size=(25, robot.dof)):
+        np.testing.assert_allclose(
+            dh_fk(convention, rows, q), robot.fk(q), atol=1e-9, err_msg=str(q)
+        )
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_robots_md_limits_equal_the_registry(name: str) -> None:
+    robot = registry.get(name)
+    rows = [LIMIT_ROW.match(line) for line in robot_section(name).splitlines()]
+    rows = [m for m in rows if m]
+    assert [m.group(2) for m in rows] == list(robot.joint_names)
+    table = np.array([[number(g) for g in m.groups()[2:6]] for m in rows])
+    np.testing.assert_allclose(table[:, :2], robot.position_limits, atol=1e-4)
+    np.testing.assert_allclose(table[:, 2], robot.velocity_limits, atol=1e-4)
+    np.testing.assert_allclose(table[:, 3], robot.acceleration_limits, atol=1e-4)
+
+
+def test_robots_md_number_cells() -> None:
+    assert number("pi/2") == pytest.approx(np.pi / 2)
+    assert number("-pi/2") == pytest.approx(-np.pi / 2)
+    assert number("2 pi/3") == pytest.approx(2 * np.pi / 3)
+    assert number(" -0.39225 ") == -0.39225
