@@ -96,8 +96,9 @@ def planning_error_classes() -> set[type[core_errors.PlanningError]]:
 
 
 def literal_service_codes() -> set[str]:
-    """Codes the service writes directly: the second argument of every ``problem_body(...)`` call
-    and every string a variable named ``code`` is given, in service/**/*.py (parsed, not grepped)."""
+    """Codes the service writes directly, in service/**/*.py (parsed, not grepped): the second
+    argument of every ``problem_body(...)`` call, every string a variable named ``code`` is given,
+    and the codes of a module-level table named ``*CODES*`` (``{404: ("not_found", ...)}``)."""
     codes: set[str] = set()
     for path in (ROOT / "service").rglob("*.py"):
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
@@ -108,15 +109,25 @@ def literal_service_codes() -> set[str]:
                     arg = node.args[1]
                     if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
                         codes.add(arg.value)
-            elif isinstance(node, ast.Assign) and any(
-                isinstance(t, ast.Name) and t.id == "code" for t in node.targets
-            ):
-                codes.update(
-                    n.value
-                    for n in ast.walk(node.value)
-                    if isinstance(n, ast.Constant) and isinstance(n.value, str)
-                )
-    return codes
+            elif isinstance(node, ast.Assign | ast.AnnAssign) and node.value is not None:
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                names = [t.id for t in targets if isinstance(t, ast.Name)]
+                if "code" in names:
+                    codes.update(
+                        n.value
+                        for n in ast.walk(node.value)
+                        if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                    )
+                elif any("CODES" in n for n in names) and isinstance(node.value, ast.Dict):
+                    codes.update(_first_string(v) for v in node.value.values)
+    return {c for c in codes if c is not None and re.fullmatch(r"[a-z][a-z_]*", c)}
+
+
+def _first_string(node: ast.expr) -> str | None:
+    """``"x"`` of a table value ``"x"`` or ``("x", ...)`` (a status -> code table)."""
+    if isinstance(node, ast.Tuple) and node.elts:
+        node = node.elts[0]
+    return node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else None
 
 
 # --- endpoints ---------------------------------------------------------------------------------
