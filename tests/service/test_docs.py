@@ -305,11 +305,11 @@ def number(text: str) -> float:
 
 
 def robot_section(name: str) -> str:
-    heading = next(
-        line for line in ROBOTS_MD.read_text(encoding="utf-8").splitlines()
-        if line.startswith(f"## `{name}`")
-    )  # fmt: skip
-    return section(ROBOTS_MD.read_text(encoding="utf-8"), heading)
+    """The text of docs/robots.md under the heading ``## `name`...`` (every registered robot has one)."""
+    text = ROBOTS_MD.read_text(encoding="utf-8")
+    heading = next((line for line in text.splitlines() if line.startswith(f"## `{name}`")), None)
+    assert heading is not None, f"docs/robots.md has no section for the registered robot {name!r}"
+    return section(text, heading)
 
 
 def dh_table(text: str) -> tuple[str, list[tuple[str, float, float, float]]]:
