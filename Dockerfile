@@ -1,8 +1,13 @@
 # Trajectory Service. Two stages: the builder installs the project into a virtual environment; the
 # runtime image gets only that environment: no compiler, no headers, no build tools, non-root.
 # Runs: python -m service --host 0.0.0.0 --port 8000 (workers from TRAJ_WORKERS, see README).
+# BASE_IMAGE: any Debian-based image with python3 (+ venv) as `python`; deploy/build_and_run.sh
+# passes a stand-in built from Debian packages where Docker Hub is not reachable.
+ARG BASE_IMAGE=python:3.11-slim
 
-FROM python:3.11-slim AS builder
+FROM ${BASE_IMAGE} AS builder
+# deploy/build_and_run.sh removes the builder images this label marks once the image is built.
+LABEL org.trajectory-service.stage=builder
 
 ENV PYTHONDONTWRITEBYTECODE=1 \
     PIP_NO_CACHE_DIR=1 \
@@ -12,17 +17,19 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 RUN python -m venv /opt/venv
 COPY pyproject.toml README.md ./
+COPY deploy/slim_venv.py /usr/local/lib/slim_venv.py
 COPY core ./core
 COPY robots ./robots
 COPY service ./service
-COPY bench ./bench
-# Every dependency ships a binary wheel, so nothing is compiled. The C/C++ headers and static
-# libraries some wheels carry (boost, eigen, casadi, numpy) only serve to build extensions: drop them.
+# Every dependency ships a binary wheel, so nothing is compiled. Then the environment is cut to what
+# runs: pip, setuptools and wheel leave it; C/C++ headers, static libraries and CMake/pkg-config
+# files (they only serve to build extensions) go; identical copies of a shared library in one
+# directory (wheels store libfoo.so, libfoo.so.3 and libfoo.so.3.7 as three files) become symlinks.
 RUN pip install . \
-    && find /opt/venv -type d -name include -prune -exec rm -rf {} + \
-    && find /opt/venv -type f -name '*.a' -delete
+    && pip uninstall -y pip setuptools wheel \
+    && python /usr/local/lib/slim_venv.py /opt/venv
 
-FROM python:3.11-slim
+FROM ${BASE_IMAGE}
 
 ENV PYTHONDONTWRITEBYTECODE=1 \
     PYTHONUNBUFFERED=1 \
@@ -32,8 +39,14 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     MKL_NUM_THREADS=1 \
     TRAJ_WORKERS=1
 
+# libgomp1: the OpenMP runtime that pinocchio's wheel links against (slim images lack it).
+# apt's package lists and caches go in the same layer (80 MB where the base does not clean them).
 # The base image's Python headers are for building extensions; nothing is built here.
-RUN rm -rf /usr/local/include \
+# hadolint ignore=DL3008
+RUN apt-get update \
+    && apt-get install -y --no-install-recommends libgomp1 \
+    && apt-get clean \
+    && rm -rf /var/lib/apt/lists/* /var/cache/apt/*.bin /usr/local/include \
     && groupadd --gid 10001 app \
     && useradd --uid 10001 --gid 10001 --no-create-home --shell /usr/sbin/nologin app
 COPY --from=builder /opt/venv /opt/venv

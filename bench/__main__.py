@@ -101,6 +101,7 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
                 do(joint.p1_quintic, client, url)
             if "P1" in tasks:
                 do(joint.p1_limits)
+                do(joint.p1_jerk, client, url)
             if "P2" in tasks:
                 do(joint.p2_spline, client, url)
                 do(joint.p2_limits)

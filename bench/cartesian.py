@@ -23,7 +23,8 @@ import numpy as np
 import pinocchio as pin
 
 from bench.harness import Row, Table, http_row, optional
-from core.cartesian_task import CartesianTask, plan
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
 from robots import registry
 
 Q_START = np.array([0.0, -1.047, 1.571, -2.094, -1.571, 0.0])

@@ -33,6 +33,15 @@ SMALL_PLAN = {
     "samples": 50,
 }
 BIG_PLAN = dict(SMALL_PLAN, samples=1000)
+_WAYPOINTS = np.cumsum(np.random.default_rng(6).uniform(-0.1, 0.1, (50, 6)), axis=0)
+SPLINE_10K = {
+    "waypoints": _WAYPOINTS.round(6).tolist(),
+    "times": np.linspace(0.0, 10.0, 50).tolist(),
+    "boundary": "natural",
+    "samples": 10_000,
+}
+"""The issue's 10,000-point spline (about 4.3 MB in the default layout)."""
+COLUMNS = "?layout=columns"
 
 
 def _request(url: str, path: str, body: dict) -> tuple[str, int, bytes]:
@@ -46,26 +55,39 @@ def _request(url: str, path: str, body: dict) -> tuple[str, int, bytes]:
 
 
 def _read_response(sock: socket.socket, buf: bytearray) -> tuple[int, bytearray]:
-    """Status and the rest of ``buf`` after one full response (Content-Length framing)."""
+    """Status and the rest of ``buf`` after one full response (Content-Length or chunked framing:
+    trajectories over 5,000 points are streamed)."""
     while b"\r\n\r\n" not in buf:
-        chunk = sock.recv(65536)
-        if not chunk:
-            raise ConnectionError("the server closed the connection")
-        buf += chunk
+        _fill(sock, buf)
     end = buf.index(b"\r\n\r\n") + 4
     lines = bytes(buf[:end]).split(b"\r\n")
     status = int(lines[0].split()[1])
-    length = next(
-        int(line.split(b":", 1)[1])
-        for line in lines[1:]
-        if line.lower().startswith(b"content-length:")
+    headers = dict(
+        (k.strip().lower(), v.strip()) for k, _, v in (line.partition(b":") for line in lines[1:])
     )
-    while len(buf) < end + length:
-        chunk = sock.recv(65536)
-        if not chunk:
-            raise ConnectionError("the server closed the connection")
-        buf += chunk
-    return status, buf[end + length :]
+    del buf[:end]
+    if headers.get(b"transfer-encoding", b"").lower() == b"chunked":
+        while True:
+            while b"\r\n" not in buf:
+                _fill(sock, buf)
+            line_end = buf.index(b"\r\n")
+            size = int(bytes(buf[:line_end]).split(b";")[0], 16)
+            while len(buf) < line_end + 2 + size + 2:
+                _fill(sock, buf)
+            del buf[: line_end + 2 + size + 2]
+            if size == 0:
+                return status, buf
+    length = int(headers[b"content-length"])
+    while len(buf) < length:
+        _fill(sock, buf)
+    return status, buf[length:]
+
+
+def _fill(sock: socket.socket, buf: bytearray) -> None:
+    chunk = sock.recv(1 << 20)
+    if not chunk:
+        raise ConnectionError("the server closed the connection")
+    buf += chunk
 
 
 @contextlib.contextmanager
@@ -177,11 +199,17 @@ class LoadTable:
         return lines
 
 
+def _orjson_round_trip(client, url: str, body: dict) -> Callable[[], object]:
+    """Encode and decode, with orjson in this process, the document the service answers."""
+    document = orjson.loads(client.post(f"{url}/v1/trajectories/joint", json=body).content)
+    return lambda: orjson.loads(orjson.dumps(document))
+
+
 def encoding_split(reps: int = 200) -> tuple[float, float]:
     """Median [s] of planning and of encoding (``convert.trajectory_response``) one 1000-sample
     quintic in-process, as the route does them."""
-    from core.point_to_point import PointToPoint, plan_joint
-    from service import convert
+    from core.joint.point_to_point import PointToPoint, plan_joint
+    from service.convert import joint as convert
 
     plan_t, enc_t = [], []
     for _ in range(reps):
@@ -229,12 +257,42 @@ def p6_http(requests: int, seconds: float, latency_budget, measure) -> LoadTable
                             client, url, "/v1/trajectories/joint", BIG_PLAN,
                             "1 worker, 1 client: the same through httpx",
                         ),
+                        Row(
+                            "the same answer: orjson encode + decode in one process",
+                            _orjson_round_trip(client, url, BIG_PLAN),
+                            note="the serialization no round trip can avoid (P6 target: httpx "
+                            "row <= 1.25x this)",
+                        ),
+                        Row(
+                            "1 worker, 1 client: the same plan, ?layout=columns, raw socket",
+                            lambda: raw("/v1/trajectories/joint" + COLUMNS, BIG_PLAN),
+                            note="time_from_start and positions/velocities/accelerations as arrays",
+                        ),
+                        Row(
+                            "1 worker, 1 client: spline 6 joints x 10,000 points, raw socket",
+                            lambda: raw("/v1/trajectories/spline", SPLINE_10K),
+                            note="default layout, streamed (chunked)",
+                        ),
+                        Row(
+                            "1 worker, 1 client: the same spline, ?layout=columns, raw socket",
+                            lambda: raw("/v1/trajectories/spline" + COLUMNS, SPLINE_10K),
+                            note="P6 target: <= 0.25x the default-layout row above",
+                        ),
                     ]  # fmt: skip
                     measure(Table("P6", "", rows[0].name, rows, unit="ms"), latency_budget)
                     latency_rows += rows
     plan_s, enc_s = encoding_split()
     body_bytes = len(orjson.dumps(BIG_PLAN))
     latency = Table("P6", "", latency_rows[0].name, latency_rows, unit="ms")
+    medians = [r.median for r in latency_rows]
+    layout_note = (
+        f"Layout ratios in this run: 1000-point quintic through httpx / orjson encode+decode "
+        f"{medians[1] / medians[2]:.2f}x (target <= 1.25x); columns / default, same plan "
+        f"{medians[3] / medians[0]:.2f}x; 10,000-point spline columns / default "
+        f"{medians[5] / medians[4]:.2f}x (target <= 0.25x)."
+        if len(medians) == 6
+        else ""
+    )
     return LoadTable(
         "P6",
         "HTTP on loopback: small joint plans under 8 concurrent clients; one 1000-point plan",
@@ -246,6 +304,7 @@ def p6_http(requests: int, seconds: float, latency_budget, measure) -> LoadTable
             f"({enc_s / latency_rows[0].median:.0%} of the raw-socket round trip, "
             f"{enc_s / latency_rows[1].median:.0%} of the httpx one); request body "
             f"{body_bytes} bytes, response about 440 kB.",
+            *([layout_note] if layout_note else []),
             "Load: 8 threads, one keep-alive connection each, bounded by a request count and a wall "
             "time. The load generator runs on the same 2 cores as the server and takes most of one "
             "of them, so two workers cannot show their throughput here; the server's CPU time per "

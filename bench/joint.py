@@ -1,11 +1,11 @@
 """P1 (quintic point-to-point) and P2 (C2 spline through via points): joint-space tasks.
 
-P1: 6 joints rest to rest in 2 s, 1000 samples of q, q', q''. Ours (``core.point_to_point.plan_joint``
+P1: 6 joints rest to rest in 2 s, 1000 samples of q, q', q''. Ours (``core.joint.point_to_point.plan_joint``
 and ``POST /v1/trajectories/joint``) beside roboticstoolbox ``jtraj`` and a plain numpy reference
 (the closed-form rest-to-rest quintic ``q0 + d (10 s^3 - 15 s^4 + 6 s^5)`` by Horner's rule).
 
 P2: 6 joints through 50 via points at given times (10 s), clamped at rest, 10,000 samples with two
-derivatives. Ours (``core.splines.plan_spline`` and ``POST /v1/trajectories/spline``) beside scipy
+derivatives. Ours (``core.joint.splines.plan_spline`` and ``POST /v1/trajectories/spline``) beside scipy
 ``CubicSpline`` fit plus three evaluations.
 
 Every row is checked against the reference before it is timed (``assert_close``), so a fast row
@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from bench.harness import Row, Table, http_row, optional
-from core.point_to_point import PointToPoint, plan_joint
-from core.splines import plan_spline
+from core.joint.point_to_point import PointToPoint, plan_joint
+from core.joint.splines import plan_spline
 
 Q0 = np.array([0.0, -1.5, 1.5, 0.0, 0.5, 0.0])
 Q1 = np.array([1.0, -1.0, 0.7, 1.2, -0.5, 0.3])
@@ -261,4 +261,66 @@ def p2_limits() -> Table:
         rows,
         columns=("duration [s]", "peak acceleration / limit"),
         unit="ms",
+    )
+
+
+def p1_jerk(client=None, url: str = "") -> Table:
+    """P1c: 6 joints jerk-limited rest to rest, time-optimal, 1000 samples of q, q', q''. Ours
+    (``plan_joint("jerk_limited")``: validation, Ruckig, vectorized sampling of its phases, exact
+    peaks, checks) beside Ruckig called directly and sampled with its own ``at_time``. Target: ours
+    <= 1.5x Ruckig direct (issue 17)."""
+    from core.limits import JointLimits
+
+    missing = optional("ruckig")
+    if missing:
+        return Table("P1c", "jerk-limited (ruckig not installed)", "", [])
+    from ruckig import InputParameter, Ruckig, Trajectory
+
+    limits = JointLimits(
+        velocity=np.full(6, VMAX), acceleration=np.full(6, AMAX), jerk=np.full(6, JMAX)
+    )
+    motion = PointToPoint.create(Q0, Q1)
+
+    def ours() -> tuple:
+        tr = plan_joint("jerk_limited", motion, limits, samples=SAMPLES).trajectory
+        return tr.times, tr.positions, tr.velocities, tr.accelerations
+
+    def ruckig_direct() -> tuple:
+        otg, inp, traj = Ruckig(6), InputParameter(6), Trajectory(6)
+        inp.current_position, inp.target_position = Q0.tolist(), Q1.tolist()
+        inp.max_velocity = [VMAX] * 6
+        inp.max_acceleration = [AMAX] * 6
+        inp.max_jerk = [JMAX] * 6
+        otg.calculate(inp, traj)
+        t = np.linspace(0.0, traj.duration, SAMPLES)
+        q, qd, qdd = (np.array(x) for x in zip(*(traj.at_time(x) for x in t), strict=True))
+        return t, q, qd, qdd
+
+    want = ruckig_direct()
+    assert_close("ours (core)", ours(), want)
+    rows = [
+        Row("ruckig direct + at_time per sample", ruckig_direct, peer=True),
+        Row(
+            "ours: core plan_joint jerk_limited", ours, note="validation, Ruckig, sampling, checks"
+        ),
+    ]
+    if client is not None:
+        body = {
+            "profile": "jerk_limited",
+            "start": {"positions": Q0.tolist()},
+            "goal": {"positions": Q1.tolist()},
+            "limits": {"velocity": [VMAX] * 6, "acceleration": [AMAX] * 6, "jerk": [JMAX] * 6},
+            "samples": SAMPLES,
+        }
+        rows.append(http_row(client, url, "/v1/trajectories/joint", body, "ours: HTTP /joint"))
+    return Table(
+        "P1c",
+        f"jerk-limited, 6 joints, rest to rest, time-optimal ({VMAX:.4g} rad/s, {AMAX:g} "
+        f"rad/s^2, {JMAX:g} rad/s^3), {SAMPLES} samples of q, q', q''",
+        "ruckig direct + at_time per sample",
+        rows,
+        notes=[
+            "The core row agrees with Ruckig's at_time to 1e-9 (checked before timing). Target "
+            "(issue 17): ours <= 1.5x Ruckig direct.",
+        ],
     )

@@ -7,7 +7,7 @@ lambda^2 ||qd||^2`` within the joint velocity and position-limit bounds. Here ea
 the ticks in order (so warm starts see their real neighbours) inside the suite's alternating rounds.
 
 The 1,000-tick run: a 1 s line at ``dt`` = 1 ms from the robot's home (15 cm and 0.4 rad, as in
-``rate_tick.line_ticks``). Ours: the controller loop alone (``core.rate_control.simulate``), the whole
+``rate_tick.line_ticks``). Ours: the controller loop alone (``core.cartesian.rate.control.simulate``), the whole
 core call (``plan``: controller, output sampling, dense checks) and the HTTP round trip. Pink: its
 closed loop (``solve_ik`` with a ``FrameTask`` whose target is our run's pose one tick ahead, then
 ``Configuration.integrate_inplace``). numpy: 1,000 DLS steps with pinocchio kinematics.
@@ -23,10 +23,11 @@ from scipy.spatial.transform import Rotation
 
 from bench.harness import Row, Table, http_row, optional
 from bench.rate_tick import contenders, line_ticks
-from core.cartesian_task import CartesianTask, plan
+from core.cartesian.plan import plan
+from core.cartesian.rate.control import simulate
+from core.cartesian.rate.qp import OSQP_SETTINGS, RateLimits, rate_bounds
+from core.cartesian.task import CartesianTask
 from core.kinematics import task_rows
-from core.rate_control import simulate
-from core.rate_qp import OSQP_SETTINGS, RateLimits, rate_bounds
 from robots import registry
 
 REFERENCE = "ours: kinematics + warm OSQP QP (one tick)"

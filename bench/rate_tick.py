@@ -29,10 +29,8 @@ import numpy as np
 from scipy.optimize import lsq_linear
 from scipy.spatial.transform import Rotation
 
-from core.cartesian_task import CartesianTask
-from core.kinematics import fk_jacobian_loop, task_rows
-from core.rate_control import simulate
-from core.rate_qp import (
+from core.cartesian.rate.control import simulate
+from core.cartesian.rate.qp import (
     OSQP_SETTINGS,
     REDUNDANCY_DAMPING,
     DlsQpSolver,
@@ -42,6 +40,8 @@ from core.rate_qp import (
     rate_bounds,
     solve_dls_qp,
 )
+from core.cartesian.task import CartesianTask
+from core.kinematics import task_rows
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def contenders(t: Ticks) -> dict[str, Callable[[int], np.ndarray] | str]:
     warm_total = DlsQpSolver(robot.dof)
     floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
 
-    kinematics_loop, total_loop = fk_jacobian_loop(robot), fk_jacobian_loop(robot)
+    kinematics_loop, total_loop = robot.fk_jacobian_loop(), robot.fk_jacobian_loop()
 
     def kinematics(k):
         _, Jk = kinematics_loop(t.q[k])  # pose and Jacobian in one pass, as the controller does
@@ -205,7 +205,7 @@ def cost_table(t: Ticks) -> list[str]:
             f"| {name} | {np.median(times):.1f} | {p95:.1f} | {times.max():.1f} | {agree} |"
         )
     lines.append(
-        f"| whole controller tick (core.rate_control.simulate, mean) | "
+        f"| whole controller tick (core.cartesian.rate.control.simulate, mean) | "
         f"{t.controller_tick_us:.1f} | | | |"
     )
     return lines

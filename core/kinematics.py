@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -79,6 +79,23 @@ class Kinematics(Protocol):
         """Geometric Jacobian (6, dof) in the base frame, linear rows first."""
         ...
 
+    def jacobian_many(self, qs: np.ndarray) -> np.ndarray:
+        """Jacobians ``(N, 6, dof)`` at each row of ``qs`` (N, dof)."""
+        ...
+
+    def fk_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(T_base_tool (4, 4), Jacobian (6, dof))`` at ``q`` in one pass."""
+        ...
+
+    def fk_jacobian_many(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(T_base_tool (N, 4, 4), Jacobians (N, 6, dof))`` at each row of ``qs`` (N, dof)."""
+        ...
+
+    def fk_jacobian_loop(self) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """A function ``q -> fk_jacobian(q)`` for a loop in one thread (a control run), which may
+        reuse its scratch space between calls (never share it between threads)."""
+        ...
+
     def ik(
         self,
         T_base_tool: np.ndarray,
@@ -87,9 +104,48 @@ class Kinematics(Protocol):
         max_iterations: int = 100,
         position_tolerance: float = 1e-6,
         orientation_tolerance: float = 1e-6,
+        respect_limits: bool = True,
     ) -> IKResult:
-        """Joint positions whose tool pose is ``T_base_tool``, starting from (and near) ``seed``."""
+        """Joint positions whose tool pose is ``T_base_tool``, starting from (and near) ``seed``.
+        ``respect_limits=False`` lets the iterates leave the joint limits (``within_limits`` then
+        tells a solution reachable only outside them from no solution)."""
         ...
+
+
+class SymbolicKinematics(Kinematics, Protocol):
+    """A robot whose FK is also a CasADi expression (the bounded-deviation NLP needs it)."""
+
+    def fk_casadi(self) -> Any:
+        """``casadi.Function`` ``fk(q) -> (p, R)``: q (dof,) to the tip position p (3,) [m] and
+        rotation R (3, 3) in the base frame (typed ``Any``: core/kinematics.py does not import
+        CasADi)."""
+        ...
+
+
+class DerivedKinematics:
+    """Mixin for a small robot model (tests, toys) that has only ``fk`` and ``jacobian``: the batched
+    and combined members of ``Kinematics`` built from them, one configuration at a time."""
+
+    def fk(self, q: np.ndarray) -> np.ndarray:  # pragma: no cover - provided by the model
+        raise NotImplementedError
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:  # pragma: no cover - provided by the model
+        raise NotImplementedError
+
+    def fk_many(self, qs: np.ndarray) -> np.ndarray:
+        return np.stack([self.fk(q) for q in np.atleast_2d(qs)])
+
+    def jacobian_many(self, qs: np.ndarray) -> np.ndarray:
+        return np.stack([self.jacobian(q) for q in np.atleast_2d(qs)])
+
+    def fk_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.fk(q), self.jacobian(q)
+
+    def fk_jacobian_many(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.fk_many(qs), self.jacobian_many(qs)
+
+    def fk_jacobian_loop(self) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        return self.fk_jacobian
 
 
 TASK_SPACES = ("pose", "position_xy")
@@ -102,26 +158,10 @@ pinocchio call per row is cheaper (UR5, measured: 12 us a row against 85 us + 0.
 
 def jacobians(kin: Kinematics, positions: np.ndarray) -> np.ndarray:
     """Jacobians ``(N, 6, dof)`` at each row of ``positions`` ``(N, dof)``: the robot's vectorized
-    ``jacobian_many`` when it has one (``robots.Robot`` does) and ``N`` is large enough, else one
-    ``jacobian`` call per row."""
-    many = getattr(kin, "jacobian_many", None)
-    if many is not None and len(positions) >= VECTORIZED_JACOBIANS:
-        return many(np.asarray(positions, dtype=float).reshape(-1, kin.dof))
+    ``jacobian_many`` when ``N`` is large enough, else one ``jacobian`` call per row."""
+    if len(positions) >= VECTORIZED_JACOBIANS:
+        return kin.jacobian_many(np.asarray(positions, dtype=float).reshape(-1, kin.dof))
     return np.stack([kin.jacobian(q) for q in positions])
-
-
-def fk_jacobian(kin: Kinematics, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(T_base_tool (4, 4), Jacobian (6, dof))`` at ``q``: in one pass when the robot has
-    ``fk_jacobian`` (``robots.Robot`` does), else ``fk`` and ``jacobian``."""
-    both = getattr(kin, "fk_jacobian", None)
-    return both(q) if both is not None else (kin.fk(q), kin.jacobian(q))
-
-
-def fk_jacobian_loop(kin: Kinematics) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """A function ``q -> fk_jacobian(kin, q)`` for a loop in one thread (a control run): the
-    robot's ``fk_jacobian_loop`` (reusing its scratch space) when it has one."""
-    loop = getattr(kin, "fk_jacobian_loop", None)
-    return loop() if loop is not None else (lambda q: fk_jacobian(kin, q))
 
 
 def task_rows(task_space: str) -> np.ndarray:

@@ -1,15 +1,22 @@
-"""Per-joint limits and the checks of request values and plans against them.
+"""Per-joint limits and the one set of checks of request values and plans against them.
 
-``JointLimits`` holds velocity, acceleration and position limits (``None``: not known, unbounded);
-``joint_vector`` validates one value per joint; ``check_rates``, ``check_boundary_rates`` and
-``check_positions`` raise ``JointRateLimit`` / ``JointLimit`` with the joint, and the request field
-or the sample at fault. Units: [rad or m], per [s], per [s^2]; arrays ``(dof,)`` or ``(N, dof)``.
+``JointLimits`` holds velocity, acceleration, jerk and position limits (``None``: not known,
+unbounded); ``joint_vector`` validates one value per joint. The checks, with one set of slacks
+(``POSITION_TOLERANCE`` absolute, ``RATE_TOLERANCE`` relative) for every planner:
+
+- masks, for planners that decide what to do with a violation: ``outside_position_limits`` and
+  ``over_rate_limit``;
+- raising checks: ``check_rates``, ``check_boundary_rates`` and ``check_positions`` raise
+  ``JointRateLimit`` / ``JointLimit`` with the joint, and the request field or the sample at fault.
+
+Units: [rad or m], per [s], per [s^2], per [s^3]; arrays ``(dof,)`` or ``(N, dof)``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -34,17 +41,47 @@ def joint_vector(
     if value is None:
         if default is None:
             raise InputError(f"{_dotted(field)} is required", field=field)
-        return np.full(dof, float(default))
+        return np.zeros(dof) if default == 0.0 else np.full(dof, float(default))
     arr = np.asarray(value, dtype=float)
     if arr.shape != (dof,):
         raise InputError(f"{_dotted(field)} needs {dof} values, one per joint", field=field)
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InputError(f"{_dotted(field)} must hold finite numbers", field=field)
     return arr
 
 
 def _dotted(field: Field) -> str:
     return ".".join(str(p) for p in field)
+
+
+def outside_position_limits(
+    positions: np.ndarray, position_limits: np.ndarray, tolerance: float = POSITION_TOLERANCE
+) -> np.ndarray:
+    """Boolean mask, ``positions``' shape (``(dof,)`` or ``(N, dof)``): True where a value lies
+    more than ``tolerance`` [rad or m] outside ``position_limits`` ``(dof, 2)`` (lower, upper)."""
+    lo, hi = position_limits[:, 0], position_limits[:, 1]
+    return (positions < lo - tolerance) | (positions > hi + tolerance)
+
+
+def over_rate_limit(
+    values: np.ndarray, limit: np.ndarray, tolerance: float = RATE_TOLERANCE
+) -> np.ndarray:
+    """Boolean mask, ``values``' shape: True where ``|values|`` exceeds ``limit`` ``(dof,)`` (a
+    velocity, acceleration or jerk limit, ``inf`` allowed) by more than the relative ``tolerance``."""
+    return np.abs(values) > limit * (1.0 + tolerance)
+
+
+class LimitedChain(Protocol):
+    """The limit members of ``core.kinematics.Kinematics`` (any robot model has them)."""
+
+    @property
+    def position_limits(self) -> np.ndarray: ...
+
+    @property
+    def velocity_limits(self) -> np.ndarray: ...
+
+    @property
+    def acceleration_limits(self) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -55,15 +92,27 @@ class JointLimits:
         velocity: Speed limits ``(dof,)`` in [rad/s or m/s], > 0 (``inf`` allowed).
         acceleration: Acceleration limits ``(dof,)`` in [rad/s^2 or m/s^2], > 0 (``inf`` allowed).
         position: Position limits ``(dof, 2)`` lower, upper in [rad or m] (``±inf`` allowed).
+        jerk: Jerk limits ``(dof,)`` in [rad/s^3 or m/s^3], > 0 (``inf`` allowed).
     """
 
     velocity: np.ndarray | None = None
     acceleration: np.ndarray | None = None
     position: np.ndarray | None = None
+    jerk: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, robot: LimitedChain, jerk: np.ndarray | None = None) -> JointLimits:
+        """The position, velocity and acceleration limits of ``robot`` (and ``jerk`` if known)."""
+        return cls(
+            velocity=np.asarray(robot.velocity_limits, dtype=float),
+            acceleration=np.asarray(robot.acceleration_limits, dtype=float),
+            position=np.asarray(robot.position_limits, dtype=float),
+            jerk=jerk,
+        )
 
     def validate(self, dof: int) -> None:
         """Check shapes and values against ``dof``; raise ``InputError`` naming ``limits.*``."""
-        for name in ("velocity", "acceleration"):
+        for name in ("velocity", "acceleration", "jerk"):
             lim = getattr(self, name)
             if lim is None:
                 continue
@@ -91,23 +140,26 @@ def check_rates(
     limits: JointLimits,
     joint_names: Sequence[str],
     *,
+    peak_jerk: np.ndarray | None = None,
     tolerance: float = RATE_TOLERANCE,
     hint: Callable[[], str] | None = None,
 ) -> None:
-    """Raise ``JointRateLimit`` for the joint that exceeds a velocity or acceleration limit most.
+    """Raise ``JointRateLimit`` for the joint that exceeds a velocity, acceleration or jerk limit
+    most (velocity first).
 
     Args:
         peak_velocity: Largest |velocity| per joint ``(dof,)`` or ``None`` to skip.
         peak_acceleration: Largest |acceleration| per joint ``(dof,)`` or ``None`` to skip.
+        peak_jerk: Largest |jerk| per joint ``(dof,)`` or ``None`` to skip.
         tolerance: Relative slack.
         hint: Called only on failure; its text ends the message (say, the shortest duration).
     """
-    vmax, amax = limits.maxima(len(joint_names))
     for kind, peak, limit in (
-        ("velocity", peak_velocity, vmax),
-        ("acceleration", peak_acceleration, amax),
+        ("velocity", peak_velocity, limits.velocity),
+        ("acceleration", peak_acceleration, limits.acceleration),
+        ("jerk", peak_jerk, limits.jerk),
     ):
-        if peak is None:
+        if peak is None or limit is None:  # an unknown limit is infinite: nothing to check
             continue
         with np.errstate(over="ignore"):  # a tiny limit gives an infinite ratio: still over
             ratio = np.asarray(peak, dtype=float) / limit  # 0 where the limit is inf
@@ -126,7 +178,7 @@ def check_boundary_rates(
 ) -> None:
     """Raise ``JointRateLimit`` naming ``field + (joint,)`` where a boundary ``|value|`` ``(dof,)``
     exceeds ``limit`` ``(dof,)``: no timing can fix a start or goal state over the limits."""
-    exceeds = np.abs(value) > limit
+    exceeds = over_rate_limit(value, limit, 0.0)
     if exceeds.any():
         over = exceeds.nonzero()[0]
         j = int(over[0])
@@ -152,8 +204,7 @@ def check_positions(
     """
     if limits.position is None:
         return
-    lo, hi = limits.position[:, 0], limits.position[:, 1]
-    bad = (positions < lo - POSITION_TOLERANCE) | (positions > hi + POSITION_TOLERANCE)
+    bad = outside_position_limits(positions, limits.position)
     if not bad.any():
         return
     row, j = (int(i) for i in np.argwhere(bad)[0])

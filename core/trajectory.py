@@ -8,7 +8,7 @@ per second, per second squared).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -21,12 +21,26 @@ DEFAULT_SAMPLE_PERIOD = 0.01
 """Sample period in [s] used when a request gives neither ``sample_period`` nor ``samples``."""
 
 
+class Peaks(NamedTuple):
+    """Largest |velocity|, |acceleration| and |jerk| of each joint over the whole profile (not
+    only at the samples), each ``(dof,)`` in [rad or m] per [s], [s^2], [s^3]."""
+
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+
+
 class Profile(Protocol):
-    """Anything built once and sampled many times: ``profile(t, order)`` -> ``(len(t), dof)``."""
+    """Anything built once and sampled many times: ``profile(t, order)`` -> ``(len(t), dof)``,
+    with its exact ``peaks()`` over ``[0, duration]``."""
 
     duration: float
 
     def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...
+
+    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def peaks(self) -> Peaks: ...
 
 
 @dataclass(frozen=True)
@@ -39,6 +53,8 @@ class Trajectory:
         velocities: Joint velocities, shape ``(N, dof)``.
         accelerations: Joint accelerations, shape ``(N, dof)``.
         joint_names: One name per joint.
+        peaks: Exact peaks of the profile the samples come from (``None``: not known, and the
+            ``peak_*`` properties read the samples).
     """
 
     times: np.ndarray
@@ -46,6 +62,7 @@ class Trajectory:
     velocities: np.ndarray
     accelerations: np.ndarray
     joint_names: tuple[str, ...] = field(default=())
+    peaks: Peaks | None = None
 
     def __post_init__(self) -> None:
         n, dof = self.positions.shape
@@ -72,32 +89,54 @@ class Trajectory:
 
     @property
     def peak_velocity(self) -> np.ndarray:
-        """Largest |velocity| of each joint over the samples, shape ``(dof,)``."""
+        """Largest |velocity| of each joint ``(dof,)``: exact when ``peaks`` is known, else over
+        the samples."""
+        if self.peaks is not None:
+            return self.peaks.velocity
         return np.abs(self.velocities).max(axis=0)
 
     @property
     def peak_acceleration(self) -> np.ndarray:
-        """Largest |acceleration| of each joint over the samples, shape ``(dof,)``."""
+        """Largest |acceleration| of each joint ``(dof,)``: exact when ``peaks`` is known, else
+        over the samples."""
+        if self.peaks is not None:
+            return self.peaks.acceleration
         return np.abs(self.accelerations).max(axis=0)
+
+    @property
+    def peak_jerk(self) -> np.ndarray:
+        """Largest |jerk| of each joint ``(dof,)``: exact when ``peaks`` is known, else the
+        largest slope of the sampled accelerations between consecutive points
+        (``sampled_peak_jerk``)."""
+        if self.peaks is not None:
+            return self.peaks.jerk
+        return sampled_peak_jerk(self.times, self.accelerations)
 
     @classmethod
     def from_profile(
         cls, profile: Profile, times: np.ndarray, joint_names: tuple[str, ...] = ()
     ) -> Trajectory:
-        """Sample ``profile`` (positions, velocities, accelerations) at ``times``; through its
-        ``sample(times)`` when it has one (the three orders at once)."""
-        sample = getattr(profile, "sample", None)
-        if sample is not None:
-            q, qd, qdd = sample(times)
-        else:
-            q, qd, qdd = profile(times, 0), profile(times, 1), profile(times, 2)
+        """Sample ``profile`` (positions, velocities, accelerations, the three orders at once) at
+        ``times``; the trajectory carries the profile's exact ``peaks()``."""
+        q, qd, qdd = profile.sample(times)
         return cls(
             times=times,
             positions=q,
             velocities=qd,
             accelerations=qdd,
             joint_names=tuple(joint_names),
+            peaks=profile.peaks(),
         )
+
+
+def sampled_peak_jerk(times: np.ndarray, accelerations: np.ndarray) -> np.ndarray:
+    """Largest |slope| of ``accelerations`` ``(N, dof)`` between consecutive ``times`` ``(N,)``
+    [s], ``(dof,)``: a lower bound of the true peak jerk, for trajectories whose profile is not
+    known in closed form (zeros for a single point)."""
+    if times.size < 2:
+        return np.zeros(accelerations.shape[1])
+    slopes = np.abs(np.diff(accelerations, axis=0)) / np.diff(times)[:, None]
+    return slopes.max(axis=0)
 
 
 def default_joint_names(dof: int) -> tuple[str, ...]:

@@ -6,7 +6,8 @@ controller asks for joint rates far beyond the limits there and refuses (422 ``j
 or ``singularity``, with the path parameter ``s``); with ``allow_partial`` it returns the prefix it
 could plan, braked to rest. The damped least-squares QP completes the line with every joint rate and
 position within its limits, and reports the deviation from the line it accepted near the
-singularity. Run: ``python examples/puma_wrist_dls.py`` (exit status 0 when all of that holds).
+singularity; a deviation over the tolerance is a 422 ``infeasible`` unless the request says
+``allow_violations`` (issue 19's rule), so the DLS request sets it. Run: ``python examples/puma_wrist_dls.py`` (exit status 0 when all of that holds).
 """
 
 from __future__ import annotations
@@ -40,7 +41,11 @@ def main() -> None:
     print(f"resolved_rate, allow_partial: fraction {partial.json()['diagnostics']['fraction']:.3f}, "
           f"{len(times)} points over {times[-1]:.3f} s, ends at rest: {not v[-1].any()}")  # fmt: skip
 
-    dls = http.post(URL, json={**REQUEST, "method": "resolved_rate_dls"})
+    strict = http.post(URL, json={**REQUEST, "method": "resolved_rate_dls"})
+    print(f"resolved_rate_dls: {strict.status_code} {strict.json().get('code')}: "
+          f"{strict.json().get('detail')}")  # fmt: skip
+    expect(strict.status_code == 422, "a deviation over the tolerance must be asked for")
+    dls = http.post(URL, json={**REQUEST, "method": "resolved_rate_dls", "allow_violations": True})
     expect(dls.status_code == 200, f"the DLS should complete, got {dls.status_code}: {dls.text}")
     body = dls.json()
     diag = body["diagnostics"]

@@ -115,7 +115,28 @@ class Chain:
         T, J = self._walk(qs, jacobian=True)
         return T, J  # type: ignore[return-value]
 
+    def joint_axes_many(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each chain joint's unit axis and a point on it (its origin), in the base frame, and the
+        tip pose, for each row of ``qs`` ``(N, nq)``: ``(N, n, 3)``, ``(N, n, 3)`` [m], ``(N, 4, 4)``.
+        For configuration labels and IK geometry (which joint axes meet or are parallel)."""
+        T, _, axes, origins = self._walk_all(np.asarray(qs, dtype=float), jacobian=True)
+        return axes.transpose(2, 0, 1), origins.transpose(2, 0, 1), T  # type: ignore[union-attr]
+
+    def kinematics_many(
+        self, qs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``fk_jacobian_many`` and ``joint_axes_many`` from one product: tip poses ``(N, 4, 4)``,
+        Jacobians ``(N, 6, nq)``, joint axes ``(N, n, 3)`` and joint origins ``(N, n, 3)``."""
+        T, J, axes, origins = self._walk_all(np.asarray(qs, dtype=float), jacobian=True)
+        return T, J, axes.transpose(2, 0, 1), origins.transpose(2, 0, 1)  # type: ignore[union-attr, return-value]
+
     def _walk(self, qs: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        T, J, _, _ = self._walk_all(qs, jacobian)
+        return T, J
+
+    def _walk_all(
+        self, qs: np.ndarray, jacobian: bool
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
         """The product of ``fk_many``, also keeping each joint's axis and origin for Jacobians."""
         qs = np.asarray(qs, dtype=float)
         n = qs.shape[0]
@@ -128,11 +149,11 @@ class Chain:
         for k in range(joints):
             p += (self.translations[k] @ S).reshape(3, n)
             x = qs[:, self.q_index[k]]
+            if origins is not None:
+                origins[k] = p
             if self.revolute[k]:
                 G = (blocks[k] @ S).reshape(3, 3, 3, n)
                 S = (G[0] + np.sin(x) * G[1] + (1.0 - np.cos(x)) * G[2]).reshape(3, 3 * n)
-                if origins is not None:
-                    origins[k] = p
             else:
                 S = blocks[k, :3] @ S
             if axes is not None:
@@ -145,7 +166,7 @@ class Chain:
         out[:, :3, 3] = tip.T
         out[:, 3, 3] = 1.0
         if axes is None or origins is None:
-            return out, None
+            return out, None, None, None
         J = np.zeros((n, 6, qs.shape[1]))
         rev, pri = self.revolute, ~self.revolute
         if rev.any():
@@ -157,4 +178,4 @@ class Chain:
             J[:, 3:, cols] = z.transpose(2, 1, 0)
         if pri.any():
             J[:, :3, self.q_index[pri]] = axes[pri].transpose(2, 1, 0)
-        return out, J
+        return out, J, axes, origins

@@ -1,211 +1,473 @@
-"""Inverse kinematics solvers behind ``Robot.ik``.
+"""Every IK solution of a pose: the solver dispatch behind ``Robot.ik_all`` and ``Robot.ik_many``.
 
-- ``solve_pose``: damped Newton / Levenberg-Marquardt on the SE3 log error ``log6(T(q)^-1 T_goal)``
-  (pinocchio, a fresh ``Data`` per call), with the error's Jacobian ``-Jlog6(E^-1) J_local``.
-- ``solve_position_xy``: the same iteration on the x and y of the tip position only (planar arms).
-- ``planar_2r``: the 2-link planar arm in closed form, both elbow branches, nearest to the seed.
+- ``analytic``: EAIK (``robots.ik_analytic``) for 6R arms it can decompose, and for 7R arms with the
+  redundant joint held; the closed form of the planar 2-link arm (``robots.ik_numeric.planar_2r``).
+- ``numeric``: damped Newton (``robots.ik_numeric``) from the seed, home and ``NUMERIC_SEEDS``
+  fixed pseudo-random seeds, with the redundant joints held.
 
-All respect joint position limits by projection (revolute joints are first moved by whole turns toward
-the middle of their range, then clipped), stop at an iteration cap and never raise for non-convergence:
-they return an ``IKResult`` with ``success=False`` and the honest residuals.
+Whatever solves, each candidate is verified by forward kinematics of the robot's own model
+(``Chain.fk_many``, tested equal to pinocchio) to ``VERIFY_POSITION`` [m] and ``VERIFY_ORIENTATION``
+[rad] (candidates just outside get a few Newton steps first); the survivors are deduplicated modulo
+2 pi, moved by whole turns into the joint limits (the turn nearest the seed, or every turn with
+``turns``), labelled (``robots.configurations``) and sorted nearest the seed first.
+
+``search`` (one solution, numeric, from several seeds) is re-exported for the existing callers.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
-from core.kinematics import IKResult
+from core.errors import InputError, JointLimit
+from core.kinematics import Kinematics as Robot  # the model's kinematics; robots.model imports us
+from robots import configurations
+from robots.ik_numeric import search  # noqa: F401  (re-export for existing callers)
 
 TWO_PI = 2.0 * math.pi
-LOCAL, ALIGNED = pin.LOCAL, pin.LOCAL_WORLD_ALIGNED
-_MU_START, _MU_MIN, _MU_MAX = 1e-3, 1e-12, 1e6
-"""Levenberg-Marquardt damping: lambda = mu * (1 + ||e||^2), mu / 10 on progress, * 10 on a rejected step."""
-
-Residual = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, float, float]]
-"""q -> (error e (m,), de/dq (m, n), position error [m], orientation error [rad])."""
-
-
-def project(
-    q: np.ndarray, lower: np.ndarray, upper: np.ndarray, revolute: np.ndarray
-) -> np.ndarray:
-    """Joint positions moved into ``[lower, upper]``: whole turns first (revolute), then clipping."""
-    out = (q < lower) | (q > upper)
-    if not out.any():
-        return q
-    q = q.copy()
-    turn = out & revolute
-    if turn.any():
-        mid = 0.5 * (lower[turn] + upper[turn])
-        q[turn] -= TWO_PI * np.round((q[turn] - mid) / TWO_PI)
-    return np.clip(q, lower, upper)
+VERIFY_POSITION = 1e-9
+"""[m]: largest tip position error of a returned solution."""
+VERIFY_ORIENTATION = 1e-9
+"""[rad]: largest tip orientation error of a returned solution."""
+POLISH_BELOW = 1e-3
+"""[m]: candidates with a position error below this that fail verification get Newton steps (EAIK's
+least-squares answers at a singular pose reach the point but may miss the orientation by a wrist
+turn, e.g. q4 + q6 of a UR arm at q5 = 0)."""
+SAME = 1e-6
+"""[rad or m]: two solutions closer than this in every joint (modulo 2 pi) are one."""
+SINGULAR = 1e-6
+"""Smallest Jacobian singular value below which a solution is reported near-singular."""
+NUMERIC_SEEDS = 24
+"""Pseudo-random seeds of the numeric all-solutions search, besides the request seed and home."""
+MAX_TURN_VARIANTS = 4096
+"""Most solutions ``turns`` may return (continuous joints of inline URDFs have ~3,000 turns each)."""
 
 
-def within(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
-    return bool(np.all(q >= lower - 1e-12) and np.all(q <= upper + 1e-12))
+@dataclass(frozen=True)
+class IKSolutions:
+    """Every verified IK solution of one pose, nearest the seed first.
 
-
-def levenberg_marquardt(
-    residual: Residual,
-    seed: np.ndarray,
-    limits: tuple[np.ndarray, np.ndarray, np.ndarray],
-    max_iterations: int,
-    position_tolerance: float,
-    orientation_tolerance: float,
-    respect_limits: bool = True,
-) -> IKResult:
-    """Minimize ``||e(q)||^2`` from ``seed``.
-
-    Args:
-        limits: (lower, upper, revolute mask), each ``(n,)``.
-        respect_limits: Project every iterate into the limits; False lets the iteration roam (used to
-            tell "unreachable" from "reachable only outside the limits").
+    Attributes:
+        positions: ``(k, dof)`` joint positions [rad or m], inside the limits.
+        configurations: One label per solution (None for robots without labels).
+        position_errors: ``(k,)`` tip position error [m] (<= 1e-9).
+        orientation_errors: ``(k,)`` orientation error [rad] (<= 1e-9; 0 for ``position_xy``).
+        solver: ``"analytic"`` or ``"numeric"``.
+        warnings: Human-readable notes (near-singular pose: the solutions are representatives).
+        outside_limits: Distinct solutions (modulo 2 pi) that reproduce the pose but lie outside the
+            joint limits in every turn (0 when none were dropped for that).
     """
-    lower, upper, revolute = limits
-    q = np.array(seed, dtype=float)  # never alias the caller's array
-    q = project(q, lower, upper, revolute) if respect_limits else q
-    e, J, pe, oe = residual(q)
-    cost = float(e @ e)
-    mu, it = _MU_START, 0
-    eye = np.eye(len(e))
-    solve = np.linalg.solve
-    at_limit = respect_limits and bool(((q <= lower) | (q >= upper)).any())
-    while not (pe <= position_tolerance and oe <= orientation_tolerance) and it < max_iterations:
-        it += 1
-        damping = (mu * (1.0 + cost)) * eye
-        dq = -J.T @ solve(J @ J.T + damping, e)
-        if at_limit:
-            # Active set: a joint pushed past a limit it already sits on is frozen, and the step
-            # is solved again with the other joints (at most a few passes).
-            for _ in range(3):
-                blocked = ((q <= lower) & (dq < 0)) | ((q >= upper) & (dq > 0))
-                if not blocked.any():
-                    break
-                Jf = J * ~blocked
-                dq = -Jf.T @ solve(Jf @ Jf.T + damping, e)
-        q_new = q + dq
-        if respect_limits and ((q_new < lower) | (q_new > upper)).any():
-            q_new = project(q_new, lower, upper, revolute)
-        e_new, J_new, pe_new, oe_new = residual(q_new)
-        cost_new = float(e_new @ e_new)
-        if cost_new < cost:
-            q, e, J, pe, oe, cost = q_new, e_new, J_new, pe_new, oe_new, cost_new
-            mu = max(mu * 0.1, _MU_MIN)
-            at_limit = respect_limits and bool(((q <= lower) | (q >= upper)).any())
-        else:
-            mu *= 10.0
-            if mu > _MU_MAX:
-                break
-    inside = within(q, lower, upper)
-    converged = pe <= position_tolerance and oe <= orientation_tolerance
-    return IKResult(q, bool(converged and inside), float(pe), float(oe), it, inside)
+
+    positions: np.ndarray
+    configurations: tuple[str | None, ...]
+    position_errors: np.ndarray
+    orientation_errors: np.ndarray
+    solver: str
+    warnings: tuple[str, ...] = ()
+    outside_limits: int = 0
+
+    def __len__(self) -> int:
+        return len(self.positions)
 
 
-def solve_pose(
-    model: pin.Model, tip_id: int, T_world_goal: pin.SE3, seed: np.ndarray, limits, **options
-) -> IKResult:
-    """Pose IK of frame ``tip_id`` to ``T_world_goal`` (in the model's root frame)."""
-    data, n = pin.Data(model), model.nv
-    goal_p = T_world_goal.translation
-
-    def residual(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
-        pin.computeJointJacobians(model, data, q)
-        M = pin.updateFramePlacement(model, data, tip_id)
-        E = M.actInv(T_world_goal)
-        e = pin.log6(E).vector
-        J = -pin.Jlog6(E.inverse()) @ pin.getFrameJacobian(model, data, tip_id, LOCAL).reshape(6, n)
-        dp, w = M.translation - goal_p, e[3:]
-        return e, J, math.sqrt(dp @ dp), math.sqrt(w @ w)
-
-    return levenberg_marquardt(residual, seed, limits, **options)
+def pose_errors(robot: Robot, qs: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tip position [m] and orientation [rad] errors of each row of ``qs`` from ``T`` (x, y only for
+    ``position_xy``), vectorized."""
+    return _errors(robot, robot.chain.fk_many(qs), T)
 
 
-def solve_position_xy(
-    model: pin.Model,
-    tip_id: int,
-    T_base_world: np.ndarray,
-    goal_xy: np.ndarray,
-    seed: np.ndarray,
-    limits,
-    **options,
-) -> IKResult:
-    """IK of the tip's x and y in the base frame (z and orientation are free)."""
-    data, n = pin.Data(model), model.nv
-    R, t = T_base_world[:2, :3], T_base_world[:2, 3]
-
-    def residual(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
-        pin.computeJointJacobians(model, data, q)
-        M = pin.updateFramePlacement(model, data, tip_id)
-        J = pin.getFrameJacobian(model, data, tip_id, ALIGNED).reshape(6, n)
-        e = R @ M.translation + t - goal_xy
-        return e, R @ J[:3], math.sqrt(e @ e), 0.0
-
-    return levenberg_marquardt(residual, seed, limits, **options)
+def _errors(robot: Robot, Ts: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    if robot.task_space == "position_xy":
+        return np.linalg.norm(Ts[:, :2, 3] - T[:2, 3], axis=1), np.zeros(len(Ts))
+    pe = np.linalg.norm(Ts[:, :3, 3] - T[:3, 3], axis=1)
+    E = np.einsum("ji,njk->nik", T[:3, :3], Ts[:, :3, :3])  # R_goal^T R
+    w = 0.5 * np.stack(
+        [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], 1
+    )
+    s, c = np.linalg.norm(w, axis=1), 0.5 * (np.trace(E, axis1=1, axis2=2) - 1.0)
+    return pe, np.arctan2(s, c)
 
 
-def _nearest_turn(angle: float, seed: float, lower: float, upper: float) -> tuple[float, bool]:
-    """``angle + 2 pi k`` nearest ``seed`` inside [lower, upper] (or nearest ``seed``, False)."""
-    k_lo, k_hi = math.ceil((lower - angle) / TWO_PI), math.floor((upper - angle) / TWO_PI)
-    k = round((seed - angle) / TWO_PI)
-    if k_lo > k_hi:
-        return angle + TWO_PI * k, False
-    return angle + TWO_PI * min(max(k, k_lo), k_hi), True
+def held_values(
+    robot: Robot, seed: np.ndarray, fixed_joints: dict[str, float] | None
+) -> dict[int, float]:
+    """Joint index -> value for the robot's redundant joints: ``fixed_joints`` (422 ``validation``
+    for a joint that is not redundant, ``joint_limit`` outside its limits), else the seed's."""
+    redundant = robot.redundant_joints
+    held = {robot.joint_names.index(n): float(seed[robot.joint_names.index(n)]) for n in redundant}
+    for name, value in (fixed_joints or {}).items():
+        if name not in robot.joint_names:
+            raise InputError(
+                f"{robot.name} has no joint of that name",
+                field=("fixed_joints", name),
+                extra={"redundant_joints": list(redundant)},
+            )
+        if name not in redundant:
+            raise InputError(
+                "only the robot's redundant joints can be fixed",
+                field=("fixed_joints", name),
+                extra={"redundant_joints": list(redundant)},
+            )
+        j = robot.joint_names.index(name)
+        lo, hi = robot.position_limits[j]
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise JointLimit(
+                f"fixed_joints holds joint '{name}' outside its position limits",
+                field=("fixed_joints", name),
+                joint=j,
+                extra={"joint_name": name, "limits": [float(lo), float(hi)]},
+            )
+        held[j] = float(value)
+    return held
 
 
-def planar_2r(
-    goal_xy: np.ndarray,
-    seed: np.ndarray,
-    l1: float,
-    l2: float,
-    lower: np.ndarray,
-    upper: np.ndarray,
-) -> tuple[np.ndarray, bool]:
-    """Closed-form IK of the planar 2-link arm (link lengths ``l1``, ``l2`` [m]).
-
-    Returns the elbow branch inside the limits nearest ``seed`` (Euclidean in joint space) and whether
-    it is inside the limits. Outside the annulus |l1 - l2| <= r <= l1 + l2 it returns the arm pointing
-    at the goal, stretched or folded: the nearest reachable point, so the residual tells the distance.
-    """
-    x, y = float(goal_xy[0]), float(goal_xy[1])
-    c2 = min(1.0, max(-1.0, (x * x + y * y - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)))
-    s2 = math.sqrt(max(0.0, 1.0 - c2 * c2))
-    candidates = []
-    for sign in (1.0, -1.0):
-        q2 = math.atan2(sign * s2, c2)
-        q1 = math.atan2(y, x) - math.atan2(l2 * sign * s2, l1 + l2 * c2)
-        a, ok1 = _nearest_turn(q1, seed[0], lower[0], upper[0])
-        b, ok2 = _nearest_turn(q2, seed[1], lower[1], upper[1])
-        q = np.array([a, b])
-        candidates.append((not (ok1 and ok2), float(np.linalg.norm(q - seed)), sign, q))
-    outside, _, _, q = min(candidates, key=lambda c: c[:3])
-    return q, not outside
+def _candidates(robot: Robot, T: np.ndarray, seed: np.ndarray, held: dict[int, float]):
+    """(candidate rows, solver name) before verification."""
+    analytic = robot.analytic_ik
+    if analytic is not None:
+        value = None if analytic.held is None else held[analytic.held]
+        try:
+            return np.array(analytic.solve(T, value)), "analytic"
+        except (RuntimeError, ValueError):  # EAIK refusing a held value: solve numerically
+            pass
+    if robot.planar_closed_form is not None:
+        q = robot.planar_closed_form(T[:2, 3], seed)[0]
+        return np.array([q, _planar_mirror(robot, q)]), "analytic"
+    return _numeric(robot, T, seed, held), "numeric"
 
 
-def search(
-    robot, T_base_tool: np.ndarray, seed: np.ndarray | None = None, *, restarts: int = 16, **options
-) -> IKResult:
-    """IK from ``seed`` (default ``robot.home``), then from ``restarts`` fixed pseudo-random seeds
-    inside the limits (revolute ranges capped to +-pi around 0): the first success, else the attempt
-    with the smallest residual. Deterministic: the same request gets the same answer.
+def _planar_mirror(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """The other elbow branch of a planar 2-link arm reaching the same point: the arm mirrored about
+    the line from the base to the tip (link lengths from the chain at q = 0)."""
+    _, o, T = robot.chain.joint_axes_many(np.zeros((1, 2)))
+    l1, l2 = np.linalg.norm(o[0, 1] - o[0, 0]), np.linalg.norm(T[0, :3, 3] - o[0, 1])
+    q1 = q[0] + 2.0 * math.atan2(l2 * math.sin(q[1]), l1 + l2 * math.cos(q[1]))
+    return np.array([q1, -q[1]])
 
-    ``robot`` is a ``robots.model.Robot``; ``options`` go to ``robot.ik``.
-    """
-    lower, upper = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    first = robot.home if seed is None else np.clip(np.asarray(seed, dtype=float), lower, upper)
+
+def _numeric(robot: Robot, T: np.ndarray, seed: np.ndarray, held: dict[int, float]) -> np.ndarray:
+    lower, upper = robot.position_limits[:, 0].copy(), robot.position_limits[:, 1].copy()
+    for j, v in held.items():
+        lower[j] = upper[j] = v
     rng = np.random.default_rng(0)
     lo, hi = np.maximum(lower, -math.pi), np.minimum(upper, math.pi)
     lo, hi = np.where(lo <= hi, lo, lower), np.where(lo <= hi, hi, upper)
-    best: IKResult | None = None
-    for k in range(restarts + 1):
-        start = first if k == 0 else rng.uniform(lo, hi)
-        result = robot.ik(T_base_tool, start, **options)
-        if result.success:
-            return result
-        if best is None or result.position_error + result.orientation_error < (
-            best.position_error + best.orientation_error
-        ):
-            best = result
-    return best  # type: ignore[return-value]
+    starts = np.vstack([seed, robot.home, rng.uniform(lo, hi, (NUMERIC_SEEDS, robot.dof))])
+    for j, v in held.items():
+        starts[:, j] = v
+    limits = (lower, upper, robot.revolute)
+    found = []
+    for start in starts:
+        r = robot.ik_from(T, start, limits, max_iterations=100, tolerance=1e-11)
+        if r.position_error <= POLISH_BELOW and r.orientation_error <= POLISH_BELOW:
+            found.append(r.positions)
+    return np.array(found).reshape(-1, robot.dof)
+
+
+def _polish(robot: Robot, T: np.ndarray, qs: np.ndarray, held: dict[int, float]) -> np.ndarray:
+    lower, upper = robot.position_limits[:, 0].copy(), robot.position_limits[:, 1].copy()
+    for j, v in held.items():
+        lower[j] = upper[j] = v
+    limits = (lower, upper, robot.revolute)
+    return np.array(
+        [
+            robot.ik_from(T, q, limits, max_iterations=50, tolerance=1e-12, respect_limits=False)[0]
+            for q in qs
+        ]
+    ).reshape(-1, robot.dof)
+
+
+def _wrap(d: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """Differences with revolute components wrapped into [-pi, pi)."""
+    return np.where(revolute, (d + math.pi) % TWO_PI - math.pi, d)
+
+
+def _dedupe(qs: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """Rows kept in order, each dropped when an earlier row equals it modulo 2 pi (within ``SAME``)."""
+    if len(qs) < 2:
+        return qs
+    same = np.abs(_wrap(qs[:, None] - qs[None], revolute)).max(axis=2) < SAME
+    return qs[np.argmax(same, axis=1) == np.arange(len(qs))]
+
+
+def _turns(
+    qs: np.ndarray, seed: np.ndarray, limits: np.ndarray, revolute: np.ndarray, every: bool
+) -> np.ndarray:
+    """Each row moved by whole turns (revolute joints) into the limits: the variant nearest ``seed``
+    per joint, or (``every``) every variant; rows with no variant inside the limits are dropped."""
+    lo, hi = limits[:, 0], limits[:, 1]
+    base = qs + np.where(revolute, TWO_PI * np.round((seed - qs) / TWO_PI), 0.0)
+    k_lo = np.where(revolute, np.ceil((lo - base - 1e-12) / TWO_PI), 0.0)
+    k_hi = np.where(revolute, np.floor((hi - base + 1e-12) / TWO_PI), 0.0)
+    ok = (k_lo <= k_hi).all(axis=1) & (
+        revolute | ((base >= lo - 1e-12) & (base <= hi + 1e-12))
+    ).all(axis=1)
+    base, k_lo, k_hi = base[ok], k_lo[ok], k_hi[ok]
+    if not every:
+        k = np.clip(0.0, k_lo, k_hi)
+        return np.clip(base + TWO_PI * k, lo, hi)
+    count = np.prod(k_hi - k_lo + 1, axis=1).sum() if len(base) else 0
+    if count > MAX_TURN_VARIANTS:
+        raise InputError(
+            f"turns would return {int(count)} solutions (at most {MAX_TURN_VARIANTS}): the joint "
+            "ranges allow too many whole turns",
+            field=("turns",),
+        )
+    out = []
+    for q, a, b in zip(base, k_lo, k_hi, strict=True):
+        ranges = [range(int(x), int(y) + 1) for x, y in zip(a, b, strict=True)]
+        for ks in itertools.product(*ranges):
+            out.append(np.clip(q + TWO_PI * np.array(ks, dtype=float), lo, hi))
+    return np.array(out).reshape(-1, qs.shape[1])
+
+
+def ik_all(
+    robot: Robot,
+    T_base_tool: np.ndarray,
+    seed: np.ndarray | None = None,
+    fixed_joints: dict[str, float] | None = None,
+    turns: bool = False,
+) -> IKSolutions:
+    """Every verified solution of ``T_base_tool`` inside the limits (see the module docstring).
+
+    Args:
+        seed: ``(dof,)`` [rad or m], default ``robot.home``; solutions are sorted by distance to it.
+        fixed_joints: Joint name -> value for redundant joints (default: the seed's value).
+        turns: Also every 2 pi variant of each solution within the limits.
+    """
+    T = np.asarray(T_base_tool, dtype=float)
+    seed = robot.home if seed is None else np.asarray(seed, dtype=float)
+    if seed.shape != (robot.dof,) or not np.isfinite(seed).all():
+        raise InputError(f"seed needs {robot.dof} finite values, one per joint", field=("seed",))
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise InputError("IK needs a finite 4x4 pose", field=("pose",))
+    held = held_values(robot, seed, fixed_joints)
+    Q, solver = _candidates(robot, T, seed, held)
+    warnings: list[str] = []
+    if len(Q):
+        pe, oe = pose_errors(robot, Q, T)
+        bad = (pe > VERIFY_POSITION) | (oe > VERIFY_ORIENTATION)
+        fix = bad & (pe < POLISH_BELOW)
+        if fix.any():
+            Q[fix] = _polish(robot, T, Q[fix], held)
+            pe, oe = pose_errors(robot, Q, T)
+        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+        for j, v in held.items():
+            good &= np.abs(Q[:, j] - v) <= 1e-12
+        Q = Q[good]
+    Q = _dedupe(Q, robot.revolute)
+    inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
+    outside = len(Q) - len(inside)
+    Q = _turns(Q, seed, robot.position_limits, robot.revolute, True) if turns else inside
+    order = np.argsort(np.linalg.norm(Q - seed, axis=1), kind="stable")
+    Q = Q[order]
+    if not len(Q):
+        return IKSolutions(Q, (), np.zeros(0), np.zeros(0), solver, (), outside)
+    F, J, z, o = robot.chain.kinematics_many(Q)  # one product: errors, singular values, labels
+    pe, oe = _errors(robot, F, T)
+    smallest = np.linalg.svd(J[:, robot.task_rows], compute_uv=False)[:, -1]
+    if robot.dof < len(robot.task_rows):
+        smallest = np.zeros(len(Q))
+    if smallest.min() < SINGULAR:
+        warnings.append(
+            "the pose is at or near a singularity (smallest Jacobian singular value "
+            f"{smallest.min():.1e}): infinitely many solutions exist there, and the ones "
+            "returned are representatives"
+        )
+    fam = robot.configuration_family
+    labels = (
+        tuple(configurations.labels_from(fam, configurations.signs_from(fam, z, o, F)))
+        if fam is not None
+        else (None,) * len(Q)
+    )
+    return IKSolutions(Q, labels, pe, oe, solver, tuple(warnings), outside)
+
+
+@dataclass(frozen=True)
+class IKPath:
+    """IK of a sequence of poses on one configuration branch (``ik_many``).
+
+    Attributes:
+        positions: ``(N, dof)`` joint positions [rad or m]; 2 pi turns unwrapped from the seed, so
+            consecutive rows never jump by a whole turn. Rows where ``found`` is False hold the
+            previous row's values.
+        found: ``(N,)`` a verified solution with the configuration exists at that pose.
+        within_limits: ``(N,)`` that solution is inside the joint position limits.
+        configuration: The label followed (None for robots without labels: nearest the previous row).
+        solver: ``"analytic"`` or ``"numeric"``.
+    """
+
+    positions: np.ndarray
+    found: np.ndarray
+    within_limits: np.ndarray
+    configuration: str | None
+    solver: str
+
+
+def ik_many(
+    robot: Robot, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+) -> IKPath:
+    """IK of every pose of ``Ts`` ``(N, 4, 4)`` on one branch: the configuration ``configuration``
+    (default the seed's label) at every pose, verified by FK to 1e-9 m and 1e-9 rad.
+
+    6R arms with an analytic solver: one batched EAIK call, one vectorized verification and labelling
+    of all candidates, a vectorized choice per pose (no Python loop per sample). Other robots:
+    damped Newton from the previous row, pose by pose (the numeric path of the sampled method).
+    """
+    Ts = np.asarray(Ts, dtype=float)
+    seed = np.asarray(seed, dtype=float)
+    n, dof = len(Ts), robot.dof
+    label = configuration if configuration is not None else robot.configuration(seed)
+    analytic = robot.analytic_ik
+    if analytic is None or analytic.held is not None or label is None:
+        return _ik_many_numeric(robot, Ts, seed, label)
+    rows = analytic.solve_many(Ts)
+    counts = np.array([len(r) for r in rows])
+    Q = np.concatenate(rows) if counts.sum() else np.zeros((0, dof))
+    owner = np.repeat(np.arange(n), counts)
+    pe, oe = pose_errors_many(robot, Q, Ts[owner])
+    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    fix = ~good & (pe < POLISH_BELOW)
+    if fix.any():  # rare: EAIK's least-squares answers at singular poses
+        for i in np.flatnonzero(fix):
+            Q[i] = _polish(robot, Ts[owner[i]], Q[i : i + 1], {})[0]
+        pe, oe = pose_errors_many(robot, Q, Ts[owner])
+        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    labels = np.array(robot.configurations(Q), dtype=object) if len(Q) else np.zeros(0, object)
+    match = good & (labels == label)
+    found = np.zeros(n, dtype=bool)
+    found[owner[match]] = True
+    chosen = np.zeros((n, dof))
+    # the first matching candidate of each pose (a label names one solution modulo 2 pi)
+    idx = np.flatnonzero(match)
+    first = np.unique(owner[idx], return_index=True)[1]
+    chosen[owner[idx[first]]] = Q[idx[first]]
+    # rows without a solution repeat the previous found row (or the seed)
+    last = np.maximum.accumulate(np.where(found, np.arange(n), -1))
+    filled = np.where((last >= 0)[:, None], chosen[np.maximum(last, 0)], seed)
+    unwrapped = np.unwrap(np.vstack([seed, filled]), axis=0)[1:]
+    positions = np.where(robot.revolute, unwrapped, filled)
+    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
+    within = np.all((positions >= lo - 1e-12) & (positions <= hi + 1e-12), axis=1)
+    return IKPath(positions, found, within & found, label, "analytic")
+
+
+def _smallest_singular_values(J: np.ndarray) -> np.ndarray:
+    """Smallest singular value of each square Jacobian ``(N, 6, 6)``, or +inf where it is certainly
+    above ``SINGULAR``: sigma_min >= |det J| / sigma_max^5 and sigma_max <= ||J||_F, so only rows
+    with |det J| < SINGULAR ||J||_F^5 get an SVD (a few of thousands)."""
+    out = np.full(len(J), np.inf)
+    if not len(J):
+        return out
+    frob = np.sqrt(np.einsum("nij,nij->n", J, J))
+    maybe = np.abs(np.linalg.det(J)) < SINGULAR * np.maximum(frob, 1e-300) ** 5
+    if maybe.any():
+        out[maybe] = np.linalg.svd(J[maybe], compute_uv=False)[:, -1]
+    return out
+
+
+def pose_errors_many(robot: Robot, qs: np.ndarray, Ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``pose_errors`` with one goal per row: ``Ts`` ``(N, 4, 4)``."""
+    if len(qs) == 0:
+        return np.zeros(0), np.zeros(0)
+    return _errors_many(robot.chain.fk_many(qs), Ts)
+
+
+def _errors_many(F: np.ndarray, Ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    pe = np.linalg.norm(F[:, :3, 3] - Ts[:, :3, 3], axis=1)
+    E = np.einsum("nji,njk->nik", Ts[:, :3, :3], F[:, :3, :3])
+    w = 0.5 * np.stack(
+        [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], 1
+    )
+    return pe, np.arctan2(np.linalg.norm(w, axis=1), 0.5 * (np.trace(E, axis1=1, axis2=2) - 1.0))
+
+
+def _ik_many_numeric(robot: Robot, Ts: np.ndarray, seed: np.ndarray, label: str | None) -> IKPath:
+    n = len(Ts)
+    positions = np.zeros((n, robot.dof))
+    found, within = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    previous = seed
+    for i, T in enumerate(Ts):
+        r = robot.ik(T, previous, position_tolerance=1e-10, orientation_tolerance=1e-10)
+        ok = r.position_error <= VERIFY_POSITION and r.orientation_error <= VERIFY_ORIENTATION
+        if ok and label is not None:
+            ok = robot.configuration(r.positions) == label
+        found[i], within[i] = ok, ok and r.within_limits
+        if ok:
+            previous = r.positions
+        positions[i] = previous
+    return IKPath(positions, found, within, label, "numeric")
+
+
+def ik_all_many(robot: Robot, Ts: np.ndarray, seed: np.ndarray | None = None) -> list[IKSolutions]:
+    """``ik_all`` (without ``turns`` or ``fixed_joints``) for each pose of ``Ts`` ``(N, 4, 4)``.
+
+    Analytic 6R arms run batched: one EAIK call for all poses, then every step (verification, the
+    2 pi turn nearest the seed, limits, deduplication, labels, singular values, ordering) on all
+    candidates at once; the per-pose lists are split off at the end. Other robots: ``ik_all`` per pose.
+    """
+    Ts = np.asarray(Ts, dtype=float)
+    seed = robot.home if seed is None else np.asarray(seed, dtype=float)
+    analytic = robot.analytic_ik
+    if analytic is None or analytic.held is not None:
+        return [ik_all(robot, T, seed) for T in Ts]
+    n, dof = len(Ts), robot.dof
+    rows = analytic.solve_many(Ts)
+    counts = np.array([len(r) for r in rows])
+    Q = np.concatenate(rows) if counts.sum() else np.zeros((0, dof))
+    owner = np.repeat(np.arange(n), counts)
+    pe, oe = pose_errors_many(robot, Q, Ts[owner])
+    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    fix = ~good & (pe < POLISH_BELOW)
+    if fix.any():  # rare: EAIK's least-squares answers at singular poses
+        for i in np.flatnonzero(fix):
+            Q[i] = _polish(robot, Ts[owner[i]], Q[i : i + 1], {})[0]
+        pe, oe = pose_errors_many(robot, Q, Ts[owner])
+        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    Q, owner = Q[good], owner[good]
+    # the 2 pi turn of each joint nearest the seed, inside the limits (rows with none are dropped)
+    lo, hi, rev = robot.position_limits[:, 0], robot.position_limits[:, 1], robot.revolute
+    base = Q + np.where(rev, TWO_PI * np.round((seed - Q) / TWO_PI), 0.0)
+    k_lo = np.where(rev, np.ceil((lo - base - 1e-12) / TWO_PI), 0.0)
+    k_hi = np.where(rev, np.floor((hi - base + 1e-12) / TWO_PI), 0.0)
+    inside = (k_lo <= k_hi).all(axis=1)
+    Q = np.clip(base + TWO_PI * np.clip(0.0, k_lo, k_hi), lo, hi)[inside]
+    owner = owner[inside]
+    # deduplicate within each pose: an earlier row of the same pose equal modulo 2 pi
+    if len(Q) > 1:
+        order = np.argsort(owner, kind="stable")
+        Q, owner = Q[order], owner[order]
+        width = int(np.bincount(owner).max())
+        same = np.zeros(len(Q), dtype=bool)
+        for lag in range(1, width):
+            d = np.abs(_wrap(Q[lag:] - Q[:-lag], rev)).max(axis=1) < SAME
+            same[lag:] |= d & (owner[lag:] == owner[:-lag])
+        Q, owner = Q[~same], owner[~same]
+    # nearest the seed first within each pose
+    order = np.lexsort((np.linalg.norm(Q - seed, axis=1), owner))
+    Q, owner = Q[order], owner[order]
+    F, J, z, o = robot.chain.kinematics_many(Q)
+    pe, oe = _errors_many(F, Ts[owner])
+    smallest = _smallest_singular_values(J)
+    fam = robot.configuration_family
+    labels = (
+        configurations.labels_from(fam, configurations.signs_from(fam, z, o, F))
+        if fam is not None and len(Q)
+        else [None] * len(Q)
+    )
+    bounds = np.searchsorted(owner, np.arange(n + 1))
+    out = []
+    for i in range(n):
+        a, b = bounds[i], bounds[i + 1]
+        warn: tuple[str, ...] = ()
+        if b > a and smallest[a:b].min() < SINGULAR:
+            warn = (
+                "the pose is at or near a singularity (smallest Jacobian singular value "
+                f"{smallest[a:b].min():.1e}): infinitely many solutions exist there, and the "
+                "ones returned are representatives",
+            )
+        out.append(IKSolutions(Q[a:b], tuple(labels[a:b]), pe[a:b], oe[a:b], "analytic", warn))
+    return out

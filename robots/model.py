@@ -15,13 +15,18 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
 
+import casadi as ca
 import numpy as np
 import pinocchio as pin
 
 from core.errors import InputError, UnknownFrame
 from core.kinematics import TASK_SPACES, IKResult, task_rows
+from robots import configurations as _configurations
 from robots import ik as _ik
+from robots import ik_analytic as _ik_analytic
+from robots import ik_numeric as _ik_numeric
 from robots.chain import Chain
+from robots.symbolic import fk_casadi
 
 ClosedFormIK = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, bool]]
 """(goal x, y in the base frame [m], seed (dof,)) -> (joint positions, inside the limits)."""
@@ -45,8 +50,12 @@ class Robot:
         acceleration_limits: ``(dof,)`` [rad/s^2 or m/s^2], > 0.
         velocity_limits: ``(dof,)`` [rad/s or m/s], > 0; default the model's (URDF) velocity limits.
         home: ``(dof,)`` a configuration away from singularities; default zeros clipped into the limits.
-        closed_form_ik: Analytic IK for ``position_xy`` arms (see ``robots.ik.planar_2r``).
+        closed_form_ik: Analytic IK for ``position_xy`` arms (see ``robots.ik_numeric.planar_2r``).
+        redundant_joints: Joints held by IK (7-joint arms); default: for 7 revolute joints the
+            first joint from the tip whose holding lets EAIK solve the other six, else the last
+            ``dof - task rows`` joints.
         sources: Where each kind of limit comes from (``"position"``, ``"velocity"``, ...).
+        jerk_limits: ``(dof,)`` [rad/s^3 or m/s^3], > 0, or ``None`` where the maker publishes none.
     """
 
     def __init__(
@@ -62,6 +71,8 @@ class Robot:
         home: np.ndarray | None = None,
         closed_form_ik: ClosedFormIK | None = None,
         sources: Mapping[str, str] | None = None,
+        redundant_joints: tuple[str, ...] | None = None,
+        jerk_limits: np.ndarray | None = None,
     ) -> None:
         if task_space not in TASK_SPACES:
             raise ValueError(f"task_space must be one of {TASK_SPACES}")
@@ -81,6 +92,7 @@ class Robot:
         vel = model.velocityLimit if velocity_limits is None else velocity_limits
         self._velocity = _ro(vel)
         self._acceleration = _ro(acceleration_limits)
+        self._jerk = None if jerk_limits is None else _ro(jerk_limits)
         home = np.zeros(model.nq) if home is None else home
         self._home = _ro(np.clip(home, self._limits[:, 0], self._limits[:, 1]))
         for arr, what in ((self._velocity, "velocity"), (self._acceleration, "acceleration")):
@@ -91,6 +103,21 @@ class Robot:
         self._world_is_base = bool(np.allclose(self._T_base_world, np.eye(4), atol=0, rtol=0))
         self._closed_form = closed_form_ik
         self.sources: Mapping[str, str] = MappingProxyType(dict(sources or {}))
+        self._task_rows = task_rows(task_space)
+        extra = max(0, model.nq - len(self._task_rows))
+        if redundant_joints is not None:
+            order = tuple(self._joint_names.index(n) for n in redundant_joints)
+        else:
+            order = tuple(range(model.nq - 1, -1, -1))
+        self._analytic = _ik_analytic.build(self._chain, order) if task_space == "pose" else None
+        if self._analytic is not None and self._analytic.held is not None:
+            held: tuple[int, ...] = (self._analytic.held,)
+        elif redundant_joints is not None:
+            held = order
+        else:
+            held = tuple(range(model.nq - extra, model.nq))
+        self._redundant = tuple(self._joint_names[j] for j in sorted(held))
+        self._family = _configurations.family(self._chain, task_space)
 
     # --- description --------------------------------------------------------------------------
     @property
@@ -126,6 +153,11 @@ class Robot:
         return self._acceleration
 
     @property
+    def jerk_limits(self) -> np.ndarray | None:
+        """``(dof,)`` joint jerk limits [rad/s^3 or m/s^3], or ``None`` when not published."""
+        return self._jerk
+
+    @property
     def home(self) -> np.ndarray:
         """``(dof,)`` a configuration inside the limits, away from singularities."""
         return self._home
@@ -152,6 +184,117 @@ class Robot:
     def model(self) -> pin.Model:
         """The pinocchio model; read-only by convention (create a ``pin.Data`` per use)."""
         return self._model
+
+    @property
+    def task_rows(self) -> list[int]:
+        """Rows of the 6-row Jacobian the task space uses."""
+        return list(self._task_rows)
+
+    @property
+    def redundant_joints(self) -> tuple[str, ...]:
+        """Joints IK holds (at ``fixed_joints``, else the seed's value); empty for 6R arms."""
+        return self._redundant
+
+    @property
+    def analytic_ik(self) -> _ik_analytic.AnalyticIK | None:
+        """The EAIK solver of this chain, or None when none applies."""
+        return self._analytic
+
+    @property
+    def planar_closed_form(self) -> ClosedFormIK | None:
+        return self._closed_form
+
+    @property
+    def ik_solver(self) -> str:
+        """``"analytic"`` or ``"numeric"``: what ``ik_all`` uses."""
+        return "analytic" if (self._analytic or self._closed_form) is not None else "numeric"
+
+    @property
+    def max_solutions(self) -> int | None:
+        """Most distinct solutions of one pose (without 2 pi turns), where the family fixes it."""
+        if self._family == _configurations.WRIST_6R:
+            return 8
+        if self._family == _configurations.PLANAR_2R:
+            return 2
+        return None
+
+    @property
+    def configuration_family(self) -> str | None:
+        """``"wrist_6r"``, ``"planar_2r"`` or None (see ``robots.configurations``)."""
+        return self._family
+
+    @property
+    def configuration_labels(self) -> tuple[str, ...]:
+        """Every label this robot's solutions can carry (empty without a family)."""
+        return _configurations.LABELS.get(self._family, ()) if self._family else ()
+
+    def configurations(self, qs: np.ndarray) -> list[str | None]:
+        """The configuration label of each row of ``qs`` ``(N, dof)``."""
+        return _configurations.labels(self._chain, self._family, qs)
+
+    def configuration(self, q: np.ndarray) -> str | None:
+        """The configuration label of ``q`` ``(dof,)`` (None for robots without labels)."""
+        return self.configurations(self._q(q)[None])[0]
+
+    def ik_all(
+        self,
+        T_base_tool: np.ndarray,
+        seed: np.ndarray | None = None,
+        fixed_joints: Mapping[str, float] | None = None,
+        turns: bool = False,
+    ) -> _ik.IKSolutions:
+        """Every IK solution of ``T_base_tool`` inside the limits, verified to 1e-9 m and 1e-9 rad,
+        nearest ``seed`` (default home) first; see ``robots.ik.ik_all``."""
+        return _ik.ik_all(self, T_base_tool, seed, dict(fixed_joints or {}), turns)
+
+    def ik_all_many(self, Ts: np.ndarray, seed: np.ndarray | None = None) -> list[_ik.IKSolutions]:
+        """``ik_all`` for many poses ``(N, 4, 4)`` at once (batched for analytic 6R arms)."""
+        Ts = np.asarray(Ts, dtype=float)
+        if Ts.ndim != 3 or Ts.shape[1:] != (4, 4) or not np.isfinite(Ts).all():
+            raise InputError("ik_all_many needs finite (N, 4, 4) poses", field=("pose",))
+        return _ik.ik_all_many(self, Ts, None if seed is None else self._q(seed, "seed"))
+
+    def ik_many(
+        self, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+    ) -> _ik.IKPath:
+        """IK of many poses ``(N, 4, 4)`` on one configuration branch (default the seed's label),
+        batched for analytic 6R arms; see ``robots.ik.ik_many``."""
+        Ts = np.asarray(Ts, dtype=float)
+        if Ts.ndim != 3 or Ts.shape[1:] != (4, 4) or not np.isfinite(Ts).all():
+            raise InputError("ik_many needs finite (N, 4, 4) poses", field=("pose",))
+        if configuration is not None and configuration not in self.configuration_labels:
+            raise InputError(
+                "unknown configuration label",
+                field=("configuration",),
+                extra={"configurations": list(self.configuration_labels)},
+            )
+        return _ik.ik_many(self, Ts, self._q(seed, "seed"), configuration)
+
+    def ik_from(
+        self,
+        T_base_tool: np.ndarray,
+        start: np.ndarray,
+        limits: tuple[np.ndarray, np.ndarray, np.ndarray],
+        *,
+        max_iterations: int,
+        tolerance: float,
+        respect_limits: bool = True,
+    ) -> IKResult:
+        """Damped Newton from ``start`` with explicit ``limits`` (lower, upper, revolute mask); a
+        joint with lower == upper is held."""
+        options = {
+            "max_iterations": max_iterations,
+            "position_tolerance": tolerance,
+            "orientation_tolerance": tolerance,
+            "respect_limits": respect_limits,
+        }
+        T = np.asarray(T_base_tool, dtype=float)
+        if self._task_space == "position_xy":
+            return _ik_numeric.solve_position_xy(
+                self._model, self._tip_id, self._T_base_world, T[:2, 3], start, limits, **options
+            )
+        goal = self._SE3_world_base * pin.SE3(T[:3, :3], T[:3, 3])
+        return _ik_numeric.solve_pose(self._model, self._tip_id, goal, start, limits, **options)
 
     def frame_names(self) -> list[str]:
         """Names of the model's link frames."""
@@ -180,6 +323,11 @@ class Robot:
         if qs.ndim != 2 or qs.shape[1] != self._model.nq:
             raise InputError(f"fk_many needs an (N, {self._model.nq}) array", field=("positions",))
         return self._chain.fk_many(qs)
+
+    def fk_casadi(self) -> ca.Function:
+        """FK as a ``casadi.Function`` ``fk(q) -> (p, R)`` (``robots.symbolic.fk_casadi``, built
+        once per robot): the ``core.kinematics.SymbolicKinematics`` member the NLP uses."""
+        return fk_casadi(self)
 
     def fk_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(fk(q), jacobian(q))`` from one pinocchio pass (its frame Jacobian updates the tip's
@@ -229,6 +377,30 @@ class Robot:
         data = pin.Data(self._model)
         pin.forwardKinematics(self._model, data, self._q(q))
         return self._T_base_world @ pin.updateFramePlacement(self._model, data, fid).homogeneous
+
+    def reach_origin(self) -> np.ndarray:
+        """A point on the first joint's axis (its origin) in the base frame [m]."""
+        return np.array(self._chain.joint_axes_many(np.zeros((1, self.dof)))[1][0, 0])
+
+    def reach_bound(self) -> float:
+        """An upper bound [m] of the tip's distance from ``reach_origin``: the sum of the distances
+        between consecutive joint origins and from the last one to the tip (prismatic joints add
+        their largest extension)."""
+        _, o, T = self._chain.joint_axes_many(np.zeros((1, self.dof)))
+        pts = np.vstack([o[0], T[0, :3, 3]])
+        travel = np.where(self._revolute, 0.0, np.abs(self._limits).max(axis=1)).sum()
+        return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() + travel)
+
+    def link_frames(self, q: np.ndarray) -> list[tuple[str, np.ndarray]]:
+        """Every link frame's name and ``T_base_frame`` (4, 4) at ``q``, in kinematic order (the
+        model's frame order: each link after its parent)."""
+        data = pin.Data(self._model)
+        pin.framesForwardKinematics(self._model, data, self._q(q))
+        return [
+            (f.name, self._T_base_world @ data.oMf[i].homogeneous)
+            for i, f in enumerate(self._model.frames)
+            if f.type == pin.FrameType.BODY
+        ]
 
     def _frame_id(self, frame: str) -> int:
         if frame not in self.frame_names():
@@ -298,11 +470,11 @@ class Robot:
                 return self._closed_form_result(
                     self._closed_form, T[:2, 3], seed, position_tolerance
                 )
-            return _ik.solve_position_xy(
+            return _ik_numeric.solve_position_xy(
                 self._model, self._tip_id, self._T_base_world, T[:2, 3], seed, limits, **options
             )
         goal = self._SE3_world_base * pin.SE3(T[:3, :3], T[:3, 3])
-        return _ik.solve_pose(self._model, self._tip_id, goal, seed, limits, **options)
+        return _ik_numeric.solve_pose(self._model, self._tip_id, goal, seed, limits, **options)
 
     def _closed_form_result(
         self, solve: ClosedFormIK, goal_xy: np.ndarray, seed: np.ndarray, tol: float

@@ -28,6 +28,7 @@ import hashlib
 import math
 import os
 import threading
+import xml.etree.ElementTree as ET
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from importlib import resources
@@ -37,7 +38,7 @@ import numpy as np
 import pinocchio as pin
 
 from core.errors import InputError, InvalidURDF, UnknownRobot
-from robots import ik as _ik
+from robots import ik_numeric as _ik
 from robots.model import Robot
 from robots.urdf_screen import screen_urdf
 
@@ -69,6 +70,7 @@ class RobotDescription:
     home: tuple[float, ...]
     sources: dict[str, str] = field(hash=False)
     link_lengths: tuple[float, float] | None = None
+    jerk_limits: tuple[float, ...] | None = None
 
 
 DESCRIPTIONS: dict[str, RobotDescription] = {
@@ -137,8 +139,11 @@ DESCRIPTIONS: dict[str, RobotDescription] = {
                 "position": "Franka Emika datasheet (robot and interface specifications)",
                 "velocity": "Franka Emika datasheet: 2.175 rad/s (joints 1-4), 2.61 rad/s (5-7)",
                 "acceleration": "Franka Emika datasheet: 15, 7.5, 10, 12.5, 15, 20, 20 rad/s^2",
+                "jerk": "Franka Control Interface documentation, 'Limits for Panda' "
+                "(frankaemika.github.io/docs/control_parameters.html): 7500 rad/s^3 per joint",
                 "home": "Franka's 'ready' pose",
             },
+            jerk_limits=(7500.0,) * 7,
         ),
     )
 }
@@ -179,6 +184,7 @@ def _build_shipped(name: str) -> Robot:
         name, model, base_frame=d.base_frame, tip_frame=d.tip_frame, task_space=d.task_space,
         acceleration_limits=np.array(d.acceleration_limits), home=np.array(d.home),
         closed_form_ik=closed_form, sources=d.sources,
+        jerk_limits=None if d.jerk_limits is None else np.array(d.jerk_limits),
     )  # fmt: skip
 
 
@@ -186,15 +192,30 @@ def _reduced_model(urdf: str, tip: str, base: str) -> tuple[pin.Model, dict[str,
     """Screened URDF -> pinocchio model of the root-to-tip chain; returns it and the joint types."""
     screened = screen_urdf(urdf, tip, base)
     try:
-        full = pin.buildModelFromXML(screened.xml)
+        model = pin.buildModelFromXML(_lock_off_chain(screened.xml, set(screened.chain)))
     except Exception as e:  # pinocchio raises plain RuntimeError/ValueError
         raise InvalidURDF(
             "the URDF could not be turned into a kinematic model", field=("robot", "urdf")
         ) from e
-    keep = set(screened.chain)
-    lock = [j for j in range(1, full.njoints) if full.names[j] not in keep]
-    model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
     return model, screened.joint_types
+
+
+def _lock_off_chain(xml: str, chain: set[str]) -> str:
+    """The screened URDF with every movable joint off the root-to-tip chain turned ``fixed`` (at
+    position 0, the neutral configuration of every screened joint type).
+
+    Locking them in the URDF rather than with ``pin.buildReducedModel`` matters: pinocchio's reduction
+    looks frames up by name without a frame type and fails ("Several frames match the filter") when
+    a link and a joint share a name, as in the SO-ARM100 (link and joint ``gripper``).
+    """
+    root = ET.fromstring(xml)  # the screener's own output: already checked, no DTD, no entities
+    for element in root.iter("joint"):
+        if element.get("type") != "fixed" and element.get("name") not in chain:
+            element.set("type", "fixed")
+            for child in list(element):
+                if child.tag in ("axis", "limit"):
+                    element.remove(child)
+    return ET.tostring(root, encoding="unicode")
 
 
 _cache: OrderedDict[str, Robot] = OrderedDict()

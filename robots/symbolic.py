@@ -3,18 +3,29 @@
 The ``pin`` wheel has no ``pinocchio.casadi``, so the expression is built by walking the same joint
 chain as ``Robot.fk_many`` (``robots.chain.Chain``: joint placements from ``model.jointPlacements``,
 joint axes and types from each joint's motion subspace, the tip frame's placement). Used by the
-bounded-deviation NLP (``core/deviation_nlp.py``), where IPOPT needs exact derivatives of FK.
+bounded-deviation NLP (``core/cartesian/knot_nlp.py``, through ``Robot.fk_casadi``), where IPOPT needs exact derivatives of FK.
 """
 
 from __future__ import annotations
 
 import weakref
+from typing import Protocol
 
 import casadi as ca
 import numpy as np
 
-from core.kinematics import Kinematics
 from robots.chain import Chain
+
+
+class HasChain(Protocol):
+    """What ``fk_casadi`` reads of a robot (``robots.model.Robot`` has both)."""
+
+    @property
+    def dof(self) -> int: ...
+
+    @property
+    def chain(self) -> Chain: ...
+
 
 _cache: weakref.WeakKeyDictionary[object, ca.Function] = weakref.WeakKeyDictionary()
 
@@ -42,7 +53,7 @@ def chain_fk(chain: Chain, q: ca.SX) -> tuple[ca.SX, ca.SX]:
     return p, R
 
 
-def fk_casadi(robot: Kinematics) -> ca.Function:
+def fk_casadi(robot: HasChain) -> ca.Function:
     """``casadi.Function`` ``fk(q) -> (p, R)``: q (dof,) [rad or m] to the tip position p (3,) [m]
     and rotation R (3, 3) in the base frame. Built once per robot (SX graph, cached weakly).
 
@@ -51,7 +62,7 @@ def fk_casadi(robot: Kinematics) -> ca.Function:
     cached = _cache.get(robot)
     if cached is not None:
         return cached
-    chain: Chain = robot.chain  # type: ignore[attr-defined]
+    chain = robot.chain
     q = ca.SX.sym("q", robot.dof)
     p, R = chain_fk(chain, q)
     fn = ca.Function("fk", [q], [p, R], ["q"], ["p", "R"])

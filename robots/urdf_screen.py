@@ -12,7 +12,9 @@ Rules, checked in this order (each rejection says what is wrong and never echoes
 5. Joint types: revolute, prismatic, continuous and fixed only; parent and child links exist; the
    links form one tree (one root, every link has at most one parent, no cycles).
 6. Numbers: origins and axes are finite (``|xyz| <= 1e4`` m), axes non-zero; revolute and prismatic
-   joints have finite ``lower <= upper`` limits; velocity limits, when present, are finite and >= 0.
+   joints have finite ``lower <= upper`` limits; velocity and effort limits, when present, are 0
+   (no limit given: the service's default) or >= 1e-6 like a request's limits, so no URDF limit
+   can overflow a ratio (a 1e-300 rad/s limit made spline knot times infinite: HTTP 500).
 7. ``tip_frame`` and ``base_frame`` are links; the base is fixed to the root (no movable joint between
    them); at least one movable joint lies between the root and the tip.
 
@@ -42,6 +44,9 @@ MAX_COORDINATE = 1e4
 """Largest |origin coordinate| [m] and |joint position limit| [rad or m] accepted."""
 CONTINUOUS_LIMIT = 1e4
 """Position limits [rad] given to a continuous joint (pinocchio models it as bounded revolute)."""
+MIN_RATE_LIMIT = 1e-6
+"""Smallest non-zero velocity [rad/s or m/s] or effort [N m or N] limit accepted: the lower bound of
+a request's ``limits`` (``service.schemas.common.MIN_LIMIT``); tinier ones overflow ratios."""
 JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
 FIELD = ("robot", "urdf")
 _JOINT_TAG = re.compile(r"<joint[\s/>]")
@@ -138,11 +143,8 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
         raise InvalidURDF(f"{where} has a zero or oversized axis", field=FIELD)
     ET.SubElement(out, "axis", xyz=" ".join(repr(v / norm) for v in axis))
     lim = j.find("limit")
-    velocity = 0.0
-    if lim is not None and lim.get("velocity") is not None:
-        (velocity,) = _floats(lim.get("velocity"), 1, f"{where} velocity limit", (0.0,))
-        if velocity < 0:
-            raise InvalidURDF(f"{where} has a negative velocity limit", field=FIELD)
+    velocity = _rate_limit(lim, "velocity", where)
+    _rate_limit(lim, "effort", where)
     if jtype == "continuous":
         lower, upper = -CONTINUOUS_LIMIT, CONTINUOUS_LIMIT
     else:
@@ -157,6 +159,24 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
         out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity), effort="0"
     )
     return out, "revolute" if jtype == "continuous" else jtype
+
+
+def _rate_limit(lim: ET.Element | None, attribute: str, where: str) -> float:
+    """A joint's ``velocity`` or ``effort`` limit: 0 when absent or 0 (the registry's default
+    applies), else finite and >= ``MIN_RATE_LIMIT``, the lower bound of a request's limits (larger
+    velocity limits are clamped to 1e4 by the registry, as before)."""
+    if lim is None or lim.get(attribute) is None:
+        return 0.0
+    (value,) = _floats(lim.get(attribute), 1, f"{where} {attribute} limit", (0.0,))
+    if value < 0:
+        raise InvalidURDF(f"{where} has a negative {attribute} limit", field=FIELD)
+    if 0.0 < value < MIN_RATE_LIMIT:
+        raise InvalidURDF(
+            f"{where} has a {attribute} limit below {MIN_RATE_LIMIT:g}, the smallest a request "
+            "may give (0 or no attribute: the service's default)",
+            field=FIELD,
+        )
+    return value
 
 
 def _links_and_joints(root: ET.Element) -> tuple[list[str], list[ET.Element]]:

@@ -10,9 +10,13 @@ variable. Before uvicorn starts, this process
   after its stale ``*.db`` files are deleted;
 - hands uvicorn a logging config with JSON lines (``TRAJ_LOG_FORMAT``) and turns off uvicorn's own
   access log, since the app writes one line per request with its request id, route and duration;
-- hands uvicorn an HTTP protocol that sets ``TCP_NODELAY`` on every connection
-  (``service.http_protocol``: with several workers uvicorn leaves Nagle's algorithm on, 44 ms a
-  keep-alive request).
+- hands uvicorn an HTTP protocol (``service.middleware.http_protocol``) that sets ``TCP_NODELAY`` on
+  every connection (with several workers uvicorn leaves Nagle's algorithm on, 44 ms a keep-alive
+  request), cuts off a client whose headers take longer than ``TRAJ_HEADER_TIMEOUT_S`` and answers
+  malformed HTTP in problem+json;
+- bounds idle keep-alive connections (``TRAJ_KEEP_ALIVE_TIMEOUT_S``) and the connections plus
+  running requests of each worker (``TRAJ_MAX_CONNECTIONS``, uvicorn's ``limit_concurrency``; more
+  is 503 ``overloaded``). Body and write timeouts are the app's (``service.app``).
 
 It imports neither the app nor prometheus_client: workers must see the environment set here first.
 """
@@ -29,8 +33,8 @@ from collections.abc import Iterator
 
 import uvicorn
 
-from service.http_protocol import PROTOCOL
-from service.logging_setup import log_config
+from service.middleware.http_protocol import PROTOCOL
+from service.middleware.logging_setup import log_config
 from service.settings import LOG_LEVELS, Settings, SettingsError
 
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -92,7 +96,9 @@ def main(argv: list[str] | None = None) -> None:
             log_level=args.log_level,
             log_config=log_config(args.log_level, settings.log_format),
             access_log=False,
-            http=PROTOCOL,  # TCP_NODELAY with any worker count (service/http_protocol.py)
+            http=PROTOCOL,  # service/middleware/http_protocol.py
+            timeout_keep_alive=settings.keep_alive_timeout_s,
+            limit_concurrency=settings.max_connections,
         )
 
 

@@ -2,13 +2,30 @@
 
 from __future__ import annotations
 
-from fastapi import FastAPI
+from fastapi import Depends, FastAPI
 
-from service import __version__, errors, metrics
-from service.body_limit import BodyLimitMiddleware
-from service.observability import ObservabilityMiddleware
-from service.routes import cartesian, compare, health, playground, ready, robots, trajectories
+from service import __version__, deps, errors
+from service.middleware import metrics
+from service.middleware.body_limit import BodyLimitMiddleware
+from service.middleware.catch_all import CatchAllMiddleware
+from service.middleware.observability import ObservabilityMiddleware
+from service.middleware.write_timeout import WriteTimeoutMiddleware
+from service.routes import (
+    cartesian,
+    compare,
+    health,
+    playground,
+    program,
+    ready,
+    robots,
+    trajectories,
+)
 from service.settings import Settings
+
+TRAJECTORY_ROUTERS = (trajectories, cartesian, compare, program)
+"""Routers whose answers are trajectories: each route gets a deadline and ``?layout=``."""
+PLANNING_ROUTERS = (robots,)
+"""Other routers that compute: each route gets a deadline."""
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -24,10 +41,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     errors.install(app)
-    for module in (health, ready, metrics, robots, trajectories, cartesian, compare, playground):
+    for module in (health, ready, metrics, playground):
         app.include_router(module.router)
-    app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
-    # Added last = outermost: request id, metrics and access line cover every answer, 413 included.
+    for module in PLANNING_ROUTERS:
+        app.include_router(module.router, dependencies=[Depends(deps.request_deadline)])
+    for module in TRAJECTORY_ROUTERS:
+        app.include_router(module.router, dependencies=[Depends(deps.response_policy)])
+    # Innermost first: the body limit and timeouts, then the catch-all 500 (so an error anywhere
+    # inside is a whole answer), then request id, metrics and access line around everything.
+    app.add_middleware(
+        BodyLimitMiddleware, max_bytes=settings.max_body_bytes, timeout_s=settings.body_timeout_s
+    )
+    app.add_middleware(WriteTimeoutMiddleware, timeout_s=settings.write_timeout_s)
+    app.add_middleware(CatchAllMiddleware)
     app.add_middleware(
         ObservabilityMiddleware, routes=app.router.routes, access_log=settings.access_log
     )

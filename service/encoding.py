@@ -2,20 +2,34 @@
 
 The response is encoded directly with orjson from numpy arrays (no per-point pydantic objects), so a
 100,000-point trajectory costs one pass. ``time_format="ros"`` gives each ``time_from_start`` as a
-ROS Duration ``{"sec", "nanosec"}`` converted through integer nanoseconds.
+ROS Duration ``{"sec", "nanosec"}`` converted through integer nanoseconds. ``?layout=columns`` gives
+the samples as four arrays (``trajectory_columns``) instead of one object per point.
+
+Every JSON answer of a planning route passes ``json_response``, which admits it first: the
+request's deadline, a per-request cap on the estimated size (422 ``too_large``) and the worker's
+budget of response bytes in flight (503 ``overloaded`` with ``Retry-After``), so a burst of large
+answers cannot take a worker past its memory limit. The limits come from ``RESPONSE_POLICY``, which
+``service.deps`` sets for each request from the settings.
 """
 
 from __future__ import annotations
 
+import threading
+import weakref
 from collections.abc import Iterator
+from contextvars import ContextVar
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import orjson
 from starlette.responses import Response, StreamingResponse
+from starlette.types import Receive, Scope, Send
 
-from core.errors import Infeasible
+from core.budget import Deadline
+from core.errors import Infeasible, TooLarge
 from core.trajectory import Trajectory
+from service.errors import Overloaded
 
 JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
@@ -56,19 +70,49 @@ def base_diagnostics(traj: Trajectory, method: str, compute_time_ms: float) -> d
         "compute_time_ms": compute_time_ms,
         "peak_velocity": traj.peak_velocity,
         "peak_acceleration": traj.peak_acceleration,
+        "peak_jerk": traj.peak_jerk,
         "warnings": [],
     }
 
 
-def trajectory_body(
-    traj: Trajectory, diagnostics: dict[str, Any], time_format: str = "float", **extra: Any
-) -> dict[str, Any]:
-    """The response document: ``joint_names``, ``points``, ``diagnostics`` and any extra keys."""
-    body: dict[str, Any] = {
-        "joint_names": list(traj.joint_names),
-        "points": trajectory_points(traj, time_format),
-        "diagnostics": diagnostics,
+def trajectory_columns(traj: Trajectory, time_format: str = "float") -> dict[str, Any]:
+    """The columnar layout: ``time_from_start`` ``(n,)`` and ``positions``/``velocities``/
+    ``accelerations`` ``(n, dof)`` as numpy arrays, which orjson writes in one pass each."""
+    times: Any = ros_durations(traj.times) if time_format == "ros" else _f64(traj.times)
+    return {
+        "time_from_start": times,
+        "positions": _f64(traj.positions),
+        "velocities": _f64(traj.velocities),
+        "accelerations": _f64(traj.accelerations),
     }
+
+
+def _f64(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def trajectory_body(
+    traj: Trajectory,
+    diagnostics: dict[str, Any],
+    time_format: str = "float",
+    layout: str | None = None,
+    **extra: Any,
+) -> dict[str, Any]:
+    """The response document: ``joint_names``, the samples, ``diagnostics`` and any extra keys.
+
+    Args:
+        layout: ``points`` (default: ROS-shaped ``points``, one object per sample) or ``columns``
+            (``"layout": "columns"`` and the four arrays of ``trajectory_columns`` at the top
+            level); ``None`` takes the request's ``?layout=`` (``RESPONSE_POLICY``).
+    """
+    layout = layout or current_policy().layout
+    body: dict[str, Any] = {"joint_names": list(traj.joint_names)}
+    if layout == "columns":
+        body["layout"] = "columns"
+        body.update(trajectory_columns(traj, time_format))
+    else:
+        body["points"] = trajectory_points(traj, time_format)
+    body["diagnostics"] = diagnostics
     body.update(extra)
     return body
 
@@ -81,30 +125,191 @@ def check_finite(traj: Trajectory) -> None:
 
 
 STREAM_POINTS = 5_000
-"""A body whose ``points`` hold more than this many points is streamed ``STREAM_POINTS`` at a time,
-so a worker never holds the whole encoded document of a large trajectory (hundreds of MB)."""
+"""A body with more than this many samples is streamed ``STREAM_POINTS`` samples at a time, so a
+worker never holds the whole encoded document of a large trajectory (hundreds of MB)."""
+
+BYTES_PER_NUMBER = 24
+"""Upper estimate of one encoded float64 in [bytes]: 17 significant digits, sign, point, exponent
+and the comma."""
+BYTES_PER_SAMPLE = 128
+"""Upper estimate of the per-sample framing in [bytes]: the keys of a ROS-shaped point and its time."""
+COLUMNS = ("time_from_start", "positions", "velocities", "accelerations")
+
+
+@dataclass(frozen=True)
+class ResponsePolicy:
+    """What the current request allows its response (set per request by ``service.deps``).
+
+    Attributes:
+        layout: ``points`` or ``columns``.
+        max_bytes: Largest estimated response in [bytes]; ``None``: no cap.
+        budget_bytes: Estimated response bytes a worker holds in flight in [bytes]; ``None``: no budget.
+        deadline: The request's deadline, checked before encoding; ``None``: none.
+    """
+
+    layout: str = "points"
+    max_bytes: int | None = None
+    budget_bytes: int | None = None
+    deadline: Deadline | None = None
+
+
+DEFAULT_POLICY = ResponsePolicy()
+RESPONSE_POLICY: ContextVar[ResponsePolicy | None] = ContextVar("response_policy", default=None)
+
+
+def current_policy() -> ResponsePolicy:
+    """The current request's policy (``DEFAULT_POLICY``, no limits, outside a request)."""
+    return RESPONSE_POLICY.get() or DEFAULT_POLICY
+
+
+class ResponseBudget:
+    """The estimated bytes of the responses this worker holds (thread-safe; one per process)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.in_flight = 0
+
+    def reserve(self, nbytes: int, budget: int | None) -> Reservation:
+        """Admit ``nbytes`` [bytes], or raise ``Overloaded`` (503) when others hold the budget.
+
+        A response is admitted while nothing else is in flight even above ``budget``, so the
+        per-request cap, not the budget, bounds one response."""
+        with self._lock:
+            if budget is not None and self.in_flight and self.in_flight + nbytes > budget:
+                raise Overloaded(
+                    f"the worker's response memory budget ({budget} bytes) is in use; "
+                    f"this response needs about {nbytes} bytes",
+                    retry_after_s=1,
+                )
+            self.in_flight += nbytes
+        return Reservation(self, nbytes)
+
+    def _release(self, nbytes: int) -> None:
+        with self._lock:
+            self.in_flight -= nbytes
+
+
+class Reservation:
+    """Bytes held in a ``ResponseBudget`` until ``release()`` (idempotent)."""
+
+    __slots__ = ("__weakref__", "_budget", "nbytes")
+
+    def __init__(self, budget: ResponseBudget, nbytes: int) -> None:
+        self._budget: ResponseBudget | None = budget
+        self.nbytes = nbytes
+
+    def release(self) -> None:
+        budget, self._budget = self._budget, None
+        if budget is not None:
+            budget._release(self.nbytes)
+
+
+RESPONSE_BUDGET = ResponseBudget()
+
+
+def estimate_bytes(body: Any) -> int:
+    """Upper estimate of the encoded size of a response's samples in [bytes]:
+    samples x (3 x joints x ``BYTES_PER_NUMBER`` + ``BYTES_PER_SAMPLE``), summed over every
+    trajectory in the document (``/v1/compare`` rows included); 0 for a body without samples."""
+    if isinstance(body, list):
+        return sum(estimate_bytes(item) for item in body)
+    if not isinstance(body, dict):
+        return 0
+    n = _samples(body)
+    total = 0
+    if n:
+        dof = len(body.get("joint_names") or ()) or _row_width(body)
+        total = n * (3 * dof * BYTES_PER_NUMBER + BYTES_PER_SAMPLE)
+    for key in ("results", "trajectory"):
+        if key in body:
+            total += estimate_bytes(body[key])
+    return total
+
+
+def _samples(body: dict[str, Any]) -> int:
+    points = body.get("points")
+    if isinstance(points, list):
+        return len(points)
+    times = body.get("time_from_start")
+    return len(times) if isinstance(times, list | np.ndarray) else 0
+
+
+def _row_width(body: dict[str, Any]) -> int:
+    positions = body.get("positions")
+    if isinstance(positions, np.ndarray) and positions.ndim == 2:
+        return int(positions.shape[1])
+    points = body.get("points") or [{}]
+    return len(points[0].get("positions", ())) if isinstance(points[0], dict) else 0
 
 
 def json_response(body: Any, status_code: int = 200) -> Response:
-    """``body`` as JSON; a large trajectory document is streamed in chunks (same bytes)."""
-    points = body.get("points") if isinstance(body, dict) else None
-    if isinstance(points, list) and len(points) > STREAM_POINTS:
-        return StreamingResponse(
+    """``body`` as JSON, admitted first (limits from ``current_policy()``).
+
+    A trajectory document past the request's deadline is 422 ``time_budget_exceeded``; an estimate
+    (``estimate_bytes``) over the per-request cap is 422 ``too_large``; over the worker's budget of
+    response bytes in flight, 503 ``overloaded`` with ``Retry-After``. The reservation is returned
+    when the response has been sent. A document with more than ``STREAM_POINTS`` samples is
+    streamed in chunks (the same bytes)."""
+    policy = current_policy()
+    if policy.deadline is not None and isinstance(body, dict) and _samples(body):
+        # A trajectory document only: /v1/compare reports a method's timeout in its row.
+        policy.deadline.check("planning")
+    estimate = estimate_bytes(body)
+    if policy.max_bytes is not None and estimate > policy.max_bytes:
+        raise TooLarge(
+            f"the response would take about {estimate} bytes; at most {policy.max_bytes} are "
+            "allowed (fewer samples, a longer sample_period or fewer joints)",
+            extra={"estimated_bytes": estimate, "limit_bytes": policy.max_bytes},
+        )
+    reservation = RESPONSE_BUDGET.reserve(estimate, policy.budget_bytes) if estimate else None
+    response: Response
+    if isinstance(body, dict) and _samples(body) > STREAM_POINTS:
+        response = _AdmittedStreamingResponse(
             _stream(body), status_code=status_code, media_type="application/json"
         )
-    return Response(
-        orjson.dumps(body, option=JSON_OPTIONS),
-        status_code=status_code,
-        media_type="application/json",
-    )
+    else:
+        response = _AdmittedResponse(
+            orjson.dumps(body, option=JSON_OPTIONS),
+            status_code=status_code,
+            media_type="application/json",
+        )
+    if reservation is not None:
+        response.reservation = reservation
+        weakref.finalize(response, reservation.release)  # a response never sent
+    return response
+
+
+class _AdmittedResponse(Response):
+    """A response that returns its reservation once it is sent (or fails to be)."""
+
+    reservation: Reservation | None = None
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        finally:
+            if self.reservation is not None:
+                self.reservation.release()
+
+
+class _AdmittedStreamingResponse(StreamingResponse):
+    reservation: Reservation | None = None
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        finally:
+            if self.reservation is not None:
+                self.reservation.release()
 
 
 def _stream(body: dict[str, Any]) -> Iterator[bytes]:
-    """The bytes of ``orjson.dumps(body)``, with ``points`` written a chunk at a time."""
+    """The bytes of ``orjson.dumps(body)``, with ``points`` (or each column) written a chunk of
+    ``STREAM_POINTS`` samples at a time."""
     yield b"{"
     for i, (key, value) in enumerate(body.items()):
         yield (b"," if i else b"") + orjson.dumps(key) + b":"
-        if key != "points":
+        if key != "points" and not (key in COLUMNS and len(value) > STREAM_POINTS):
             yield orjson.dumps(value, option=JSON_OPTIONS)
             continue
         yield b"["

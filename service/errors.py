@@ -3,6 +3,13 @@
 Every error the service answers has ``type``, ``title``, ``status``, ``detail`` and ``code``; Cartesian
 failures add ``s`` (path parameter in [0, 1]); validation failures add ``errors`` with each field's
 location and a message. No body ever echoes the offending input value back.
+
+Beside ``STATUS`` (planning errors), ``HTTP_CODES`` gives the codes of HTTP-level answers (404
+``not_found``, 405 ``method_not_allowed``, 408 ``request_timeout``, 413 ``too_large``, 503
+``overloaded``); an ``ArithmeticError`` is 422 ``infeasible``; any other exception is 500
+``internal_error``, answered by ``service.middleware.catch_all`` so the connection stays usable.
+The HTTP protocol (``service.middleware.http_protocol``) answers what never reaches the app: 400
+``bad_request`` (malformed HTTP), 408 (slow headers), 503 (too many connections).
 """
 
 from __future__ import annotations
@@ -17,12 +24,11 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
 from core import errors as ex
-from service import metrics
+from service.middleware import metrics
+from service.problem import PROBLEM_MEDIA_TYPE, problem_body
 
 log = logging.getLogger("service.errors")
 
-PROBLEM_TYPE_BASE = "https://trajectory-service/errors/"
-PROBLEM_MEDIA_TYPE = "application/problem+json"
 
 STATUS: dict[type[ex.PlanningError], int] = {
     ex.InputError: 422,
@@ -42,24 +48,13 @@ STATUS: dict[type[ex.PlanningError], int] = {
 
 
 def _finite_or_none(value: Any) -> Any:
+    if isinstance(value, int):  # counts and indices (a program's ``segment``) stay integers
+        return value
     try:
         f = float(value)
     except (TypeError, ValueError):
         return value
     return f if f == f and abs(f) != float("inf") else None
-
-
-def problem_body(status: int, code: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:
-    """The problem+json document as a dict (``None`` values dropped)."""
-    body: dict[str, Any] = {
-        "type": PROBLEM_TYPE_BASE + code,
-        "title": title,
-        "status": status,
-        "detail": detail,
-        "code": code,
-    }
-    body.update({k: v for k, v in extra.items() if v is not None})
-    return body
 
 
 def problem_response(status: int, body: dict[str, Any]) -> Response:
@@ -146,18 +141,71 @@ def install(app: FastAPI) -> None:
                 errors=[{"loc": ["body"], "msg": msg}],
             )
             return problem_response(422, body)
-        code = "too_large" if exc.status_code == 413 else "validation"
-        title = {404: "Not found", 405: "Method not allowed", 413: "Request body too large"}.get(
-            exc.status_code, "HTTP error"
+        code, title, detail = HTTP_CODES.get(
+            exc.status_code, ("validation", "HTTP error", str(exc.detail))
         )
-        body = problem_body(exc.status_code, code, title, str(exc.detail))
+        if exc.status_code == 404 and exc.detail not in (None, "Not Found"):
+            detail = str(exc.detail)  # a route's own 404 (the playground's static files)
+        body = problem_body(exc.status_code, code, title, detail)
         response = problem_response(exc.status_code, body)
         # Keep the exception's headers: a 405 must list the supported methods in `Allow` (RFC 9110).
         response.headers.update(exc.headers or {})
         return response
 
-    @app.exception_handler(Exception)
-    async def _unexpected(_: Request, exc: Exception) -> Response:  # pragma: no cover - a bug
-        log.exception("unhandled error", exc_info=exc)
-        body = problem_body(500, "internal_error", "Internal error", "an unexpected error occurred")
-        return problem_response(500, body)
+    @app.exception_handler(ArithmeticError)
+    async def _arithmetic(_: Request, exc: ArithmeticError) -> Response:
+        # Numbers a request may hold can still overflow a formula (a ratio of extreme limits):
+        # the request cannot be planned in double precision, a 422 rather than a 500.
+        log.warning("arithmetic error answered as 422 infeasible: %r", exc)
+        metrics.planning_failure(ex.Infeasible.code)
+        body = problem_body(
+            422,
+            ex.Infeasible.code,
+            ex.Infeasible.title,
+            "the request's numbers overflow double-precision arithmetic; use less extreme values",
+        )
+        return problem_response(422, body)
+
+    @app.exception_handler(Overloaded)
+    async def _overloaded(_: Request, exc: Overloaded) -> Response:
+        return overloaded_response(str(exc), exc.retry_after_s)
+
+
+class Overloaded(Exception):
+    """The worker cannot take this request now (its response memory budget is spent): 503.
+
+    Args:
+        detail: What is exhausted, for the problem body.
+        retry_after_s: Seconds the client should wait before retrying (``Retry-After``).
+    """
+
+    def __init__(self, detail: str, retry_after_s: int = 1) -> None:
+        super().__init__(detail)
+        self.retry_after_s = retry_after_s
+
+
+HTTP_CODES: dict[int, tuple[str, str, str]] = {
+    404: ("not_found", "Not found", "no endpoint serves this path"),
+    405: ("method_not_allowed", "Method not allowed", "the endpoint does not accept this method"),
+    408: ("request_timeout", "Request timeout", "the request was not received in time"),
+    413: ("too_large", "Request body too large", "the request body is too large"),
+    503: ("overloaded", "Service overloaded", "the service is at capacity; retry later"),
+}
+"""HTTP-level errors (no planning involved): status -> (code, title, default detail)."""
+
+
+def overloaded_response(detail: str, retry_after_s: int = 1) -> Response:
+    """503 ``overloaded`` with ``Retry-After`` in [s]."""
+    body = problem_body(
+        503, "overloaded", "Service overloaded", detail, retry_after_s=retry_after_s
+    )
+    response = problem_response(503, body)
+    response.headers["Retry-After"] = str(retry_after_s)
+    return response
+
+
+def internal_error_response() -> Response:
+    """500 ``internal_error``: the answer to a bug; the connection stays usable (it is a whole,
+    well-framed response)."""
+    body = problem_body(500, "internal_error", "Internal error", "an unexpected error occurred")
+    return problem_response(500, body)

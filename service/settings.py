@@ -1,76 +1,37 @@
 """Settings from environment variables (prefix ``TRAJ_``), read once when the app is created.
 
-The README's "Configuration" table documents every variable; keep the two in step. ``python -m
-service`` takes its defaults for ``--host``, ``--port``, ``--workers`` and ``--log-level`` from here,
-and a command-line flag wins over the variable.
+``Settings`` is a pydantic-settings ``BaseSettings``: every field is read from the variable
+``TRAJ_<FIELD NAME IN UPPER CASE>`` (``TRAJ_MAX_BODY_BYTES``, ``TRAJ_TIME_BUDGET_S``...), falling
+back to the default below; a keyword argument wins over the variable (``Settings(max_points=10)``).
+``Settings.from_env()`` turns a malformed variable into ``SettingsError`` naming it. The README's
+"Configuration" table documents every variable (``env_names()`` lists them); keep the two in step.
+``python -m service`` takes its defaults for ``--host``, ``--port``, ``--workers`` and
+``--log-level`` from here, and a command-line flag wins over the variable.
 """
 
 from __future__ import annotations
 
-import os
-from dataclasses import dataclass, fields
+from typing import Any
+
+from pydantic import Field, ValidationError, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
 
 LOG_LEVELS = ("critical", "error", "warning", "info", "debug", "trace")
 LOG_FORMATS = ("json", "text")
-_TRUE = ("1", "true", "yes", "on")
-_FALSE = ("0", "false", "no", "off")
+ENV_PREFIX = "TRAJ_"
 
 
 class SettingsError(ValueError):
     """An environment variable holds a value the service cannot use; the message names it."""
 
 
-def _env(name: str, default: str) -> str:
-    return os.environ.get(f"TRAJ_{name}", default).strip()
-
-
-def _int(name: str, default: int, minimum: int, maximum: int | None = None) -> int:
-    raw = _env(name, str(default))
-    try:
-        value = int(raw)
-    except ValueError:
-        raise SettingsError(f"TRAJ_{name} must be an integer, got {raw!r}") from None
-    if value < minimum or (maximum is not None and value > maximum):
-        bound = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
-        raise SettingsError(f"TRAJ_{name} must be {bound}, got {value}")
-    return value
-
-
-def _float(name: str, default: float) -> float:
-    raw = _env(name, repr(default))
-    try:
-        value = float(raw)
-    except ValueError:
-        raise SettingsError(f"TRAJ_{name} must be a number, got {raw!r}") from None
-    if not (0.0 < value < float("inf")):
-        raise SettingsError(f"TRAJ_{name} must be a finite number > 0, got {raw!r}")
-    return value
-
-
-def _choice(name: str, default: str, choices: tuple[str, ...]) -> str:
-    value = _env(name, default).lower()
-    if value not in choices:
-        raise SettingsError(f"TRAJ_{name} must be one of {', '.join(choices)}; got {value!r}")
-    return value
-
-
-def _bool(name: str, default: bool) -> bool:
-    value = _env(name, "true" if default else "false").lower()
-    if value in _TRUE:
-        return True
-    if value in _FALSE:
-        return False
-    raise SettingsError(f"TRAJ_{name} must be true or false, got {value!r}")
-
-
-@dataclass(frozen=True)
-class Settings:
-    """Service limits, budgets and process options.
+class Settings(BaseSettings):
+    """Service limits, budgets and process options, each from ``TRAJ_<NAME>``.
 
     Attributes:
         max_body_bytes: Largest request body accepted in [bytes]; larger is 413 (default 2 MiB).
         max_points: Most points in one trajectory response.
-        time_budget_s: Wall-time budget of one planning request in [s].
+        time_budget_s: Wall-time budget of one request in [s] (planning and encoding).
         log_level: Log level of the application and uvicorn (one of ``LOG_LEVELS``).
         urdf_cache_size: Parsed client URDF models kept (LRU, keyed by content hash).
         workers: uvicorn worker processes started by ``python -m service``.
@@ -78,36 +39,76 @@ class Settings:
         port: TCP port of ``python -m service``.
         log_format: ``json`` (one object per line) or ``text`` (for a terminal).
         access_log: One log line per request (method, route, status, duration).
+        max_response_bytes: Largest estimated trajectory response in [bytes] (points x joints x
+            bytes per number); larger is 422 ``too_large`` before encoding (default 512 MiB).
+        response_budget_bytes: Estimated bytes of responses one worker holds in flight at once in
+            [bytes]; a response that would exceed it while others are in flight is 503
+            ``overloaded`` with ``Retry-After`` (default 768 MiB).
+        header_timeout_s: Time a client has to send a request's line and headers in [s], counted
+            from its first byte; past it, 408 ``request_timeout`` and the connection is closed.
+        body_timeout_s: Longest wait for the next piece of a request body in [s]; past it, 408.
+        write_timeout_s: Longest wait for a client to accept the next piece of a response in [s];
+            past it the connection is closed (a client that does not read cannot pin memory).
+        keep_alive_timeout_s: Idle time after which a keep-alive connection is closed in [s].
+        max_connections: Open connections plus running requests per worker (uvicorn's
+            ``limit_concurrency``); more is 503 ``overloaded``.
     """
 
-    max_body_bytes: int = 2 * 1024 * 1024
-    max_points: int = 100_000
-    time_budget_s: float = 10.0
+    model_config = SettingsConfigDict(env_prefix=ENV_PREFIX, frozen=True, extra="forbid")
+
+    max_body_bytes: int = Field(2 * 1024 * 1024, ge=1)
+    max_points: int = Field(100_000, ge=2)
+    time_budget_s: float = Field(10.0, gt=0, allow_inf_nan=False)
     log_level: str = "info"
-    urdf_cache_size: int = 32
-    workers: int = 1
+    urdf_cache_size: int = Field(32, ge=0)
+    workers: int = Field(1, ge=1, le=256)
     host: str = "127.0.0.1"
-    port: int = 8000
+    port: int = Field(8000, ge=0, le=65535)
     log_format: str = "json"
     access_log: bool = True
+    max_response_bytes: int = Field(512 * 1024 * 1024, ge=1024)
+    response_budget_bytes: int = Field(768 * 1024 * 1024, ge=1024)
+    header_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
+    body_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
+    write_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
+    keep_alive_timeout_s: float = Field(5.0, gt=0, allow_inf_nan=False)
+    max_connections: int = Field(1000, ge=1)
+
+    @field_validator("log_level", "log_format", mode="before")
+    @classmethod
+    def _lower(cls, value: Any) -> Any:
+        return value.strip().lower() if isinstance(value, str) else value
+
+    @field_validator("log_level")
+    @classmethod
+    def _log_level(cls, value: str) -> str:
+        if value not in LOG_LEVELS:
+            raise ValueError(f"must be one of {', '.join(LOG_LEVELS)}")
+        return value
+
+    @field_validator("log_format")
+    @classmethod
+    def _log_format(cls, value: str) -> str:
+        if value not in LOG_FORMATS:
+            raise ValueError(f"must be one of {', '.join(LOG_FORMATS)}")
+        return value
+
+    @field_validator("host", mode="before")
+    @classmethod
+    def _host(cls, value: Any) -> Any:
+        return (value.strip() or "127.0.0.1") if isinstance(value, str) else value
 
     @classmethod
     def from_env(cls) -> Settings:
         """Read every ``TRAJ_*`` variable; a malformed one raises ``SettingsError`` naming it."""
-        return cls(
-            max_body_bytes=_int("MAX_BODY_BYTES", cls.max_body_bytes, 1),
-            max_points=_int("MAX_POINTS", cls.max_points, 2),
-            time_budget_s=_float("TIME_BUDGET_S", cls.time_budget_s),
-            log_level=_choice("LOG_LEVEL", cls.log_level, LOG_LEVELS),
-            urdf_cache_size=_int("URDF_CACHE_SIZE", cls.urdf_cache_size, 0),
-            workers=_int("WORKERS", cls.workers, 1, 256),
-            host=_env("HOST", cls.host) or cls.host,
-            port=_int("PORT", cls.port, 0, 65535),
-            log_format=_choice("LOG_FORMAT", cls.log_format, LOG_FORMATS),
-            access_log=_bool("ACCESS_LOG", cls.access_log),
-        )
+        try:
+            return cls()
+        except ValidationError as e:
+            first = e.errors()[0]
+            name = ENV_PREFIX + str(first["loc"][0]).upper() if first["loc"] else ENV_PREFIX
+            raise SettingsError(f"{name}: {first['msg']}") from None
 
 
 def env_names() -> list[str]:
     """Every environment variable the service reads, in field order (``TRAJ_MAX_BODY_BYTES``...)."""
-    return [f"TRAJ_{f.name.upper()}" for f in fields(Settings)]
+    return [ENV_PREFIX + name.upper() for name in Settings.model_fields]

@@ -6,12 +6,14 @@ the planning math is tested without the robots package.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from core.kinematics import IKResult
+from core.kinematics import DerivedKinematics, IKResult
 
 
-class ToyPlanar2R:
+class ToyPlanar2R(DerivedKinematics):
     name = "toy_planar_2r"
     joint_names = ("shoulder", "elbow")
     dof = 2
@@ -53,6 +55,7 @@ class ToyPlanar2R:
         max_iterations=100,
         position_tolerance=1e-6,
         orientation_tolerance=1e-6,
+        respect_limits=True,
     ) -> IKResult:
         x, y = T_base_tool[0, 3], T_base_tool[1, 3]
         c2 = (x * x + y * y - self.l1**2 - self.l2**2) / (2 * self.l1 * self.l2)
@@ -69,3 +72,15 @@ class ToyPlanar2R:
         inside = bool(np.all(best >= lo) and np.all(best <= hi))
         ok = err <= position_tolerance and inside
         return IKResult(best, ok, err, 0.0, 1, inside)
+
+
+class FlippingToy(ToyPlanar2R):
+    """The toy arm whose IK answers the other elbow branch past x = 1.1 m (a branch flip)."""
+
+    def ik(self, T_base_tool, seed, **kw) -> IKResult:
+        r = super().ik(T_base_tool, seed, **kw)
+        if T_base_tool[0, 3] <= 1.1:
+            return r
+        q1, q2 = r.positions
+        other = np.array([q1 + 2 * math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), -q2])
+        return r._replace(positions=other)

@@ -1,6 +1,6 @@
 """POST /v1/trajectories/cartesian: the tool on the straight line from FK(start) to the goal pose.
 
-Thin route: schema -> ``CartesianTask`` (``service.cartesian_convert``) -> ``core.cartesian_task.plan``
+Thin route: schema -> ``CartesianTask`` (``service.convert.cartesian``) -> ``core.cartesian.plan.plan``
 -> response. Every method of API.md is accepted and passed on to the core's dispatch. Plain ``def``:
 planning is CPU-bound, so FastAPI runs it in its thread pool.
 """
@@ -12,7 +12,7 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from robots import registry
-from service import cartesian_convert
+from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
 from service.schemas.common import TIME_FORMAT_QUERY, TimeFormat, trajectory_responses
@@ -43,8 +43,6 @@ def cartesian_trajectory(
     settings = request.app.state.settings
     deadline = Deadline(settings.time_budget_s)
     robot = registry.resolve(body.robot)
-    task = cartesian_convert.task_from_spec(body, robot, deadline, settings.max_points)
-    result, elapsed_ms = cartesian_convert.run(task, body.method, settings.max_points)
-    return json_response(
-        cartesian_convert.result_body(task, result, body.method, elapsed_ms, time_format)
-    )
+    task = convert.task_from_spec(body, robot, deadline, settings.max_points)
+    result, elapsed_ms = convert.run(task, body.method, settings.max_points)
+    return json_response(convert.result_body(result, body.method, elapsed_ms, time_format))

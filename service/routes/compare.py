@@ -1,8 +1,10 @@
 """POST /v1/compare: one Cartesian task through every method, diagnostics side by side.
 
 The robot and the task are resolved once (an invalid task fails the whole request); then each method
-plans with its own wall-time budget (``TRAJ_TIME_BUDGET_S``), so the request is bounded by the budget
-times the number of methods. One method's failure is its row's problem+json, never the request's.
+plans the same task under ONE wall-time budget for the whole request (``TRAJ_TIME_BUDGET_S``): a
+method that starts after the budget is spent answers ``time_budget_exceeded`` in its row, so the
+request is bounded by the budget, not by the budget times the number of methods. One method's
+failure is its row's problem+json, never the request's.
 """
 
 from __future__ import annotations
@@ -14,10 +16,10 @@ from fastapi import APIRouter, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.cartesian_task import METHODS
+from core.cartesian.methods import METHODS
 from core.errors import PlanningError
 from robots import registry
-from service import cartesian_convert
+from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.errors import planning_error_body
 from service.schemas.common import PROBLEM_RESPONSES, TIME_FORMAT_QUERY, TimeFormat
@@ -44,13 +46,14 @@ def compare(
     settings = request.app.state.settings
     robot = registry.resolve(body.task.robot)
     methods = body.methods or list(METHODS)
+    deadline = Deadline(settings.time_budget_s)  # one budget for the whole request
+    task = convert.task_from_spec(body.task, robot, deadline, settings.max_points)
     rows = []
     for method in methods:
-        deadline = Deadline(settings.time_budget_s)
-        task = cartesian_convert.task_from_spec(body.task, robot, deadline, settings.max_points)
         started = time.perf_counter()
         try:
-            result, elapsed_ms = cartesian_convert.run(task, method, settings.max_points)
+            deadline.check(f"compare: before {method}")
+            result, elapsed_ms = convert.run(task, method, settings.max_points)
         except PlanningError as err:
             _, problem = planning_error_body(err)
             elapsed = (time.perf_counter() - started) * 1e3
@@ -59,7 +62,7 @@ def compare(
                 {"method": method, "ok": False, "error": problem, "diagnostics": diagnostics}
             )
             continue
-        doc = cartesian_convert.result_body(task, result, method, elapsed_ms, time_format)
+        doc = convert.result_body(result, method, elapsed_ms, time_format)
         row: dict[str, Any] = {"method": method, "ok": True, "diagnostics": doc.pop("diagnostics")}
         if body.include_trajectories:
             row["trajectory"] = doc

@@ -1,16 +1,14 @@
 """GET /: the playground page, and GET /static/{name}: its script, style sheet and Plotly.
 
 The page is plain HTML + JavaScript (no build step) in ``service/static/``; it calls only the public
-API (``/v1/...``), like any client. Plotly is the ``plotly.min.js`` that the Python ``plotly``
-package ships in ``plotly/package_data/``, served from here: the page needs no CDN and works in a
-container without internet. The Content-Security-Policy of the page allows this origin only, so a
+API (``/v1/...``), like any client. Plotly is a vendored ``plotly.min.js`` (``service/static/vendor/``,
+whose README gives its version and license), served from here: the page needs no CDN and works in
+a container without internet. The Content-Security-Policy of the page allows this origin only, so a
 script or request to any other host would be blocked, not silently fetched.
 """
 
 from __future__ import annotations
 
-import importlib.util
-from functools import lru_cache
 from pathlib import Path
 
 from fastapi import APIRouter, HTTPException
@@ -34,16 +32,8 @@ CACHE = "no-cache"
 """Revalidate on every load (cheap: ETag / Last-Modified), so a new version is never stale."""
 
 
-@lru_cache(maxsize=1)
-def plotly_js() -> Path:
-    """Path of ``plotly.min.js`` inside the installed ``plotly`` package (404 when it is absent)."""
-    spec = importlib.util.find_spec("plotly")
-    if spec is None or not spec.submodule_search_locations:
-        raise FileNotFoundError("the Python package 'plotly' is not installed")
-    path = Path(next(iter(spec.submodule_search_locations))) / "package_data" / "plotly.min.js"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} is missing from the plotly package")
-    return path
+PLOTLY_JS = STATIC_DIR / "vendor" / "plotly.min.js"
+"""plotly.js, vendored (MIT license header kept at the top of the file)."""
 
 
 def _file(path: Path, headers: dict[str, str] | None = None) -> FileResponse:
@@ -59,14 +49,9 @@ def index() -> FileResponse:
     return _file(STATIC_DIR / "index.html", {"Content-Security-Policy": CSP})
 
 
-@router.get("/static/plotly.min.js", summary="Plotly, from the Python plotly package")
+@router.get("/static/plotly.min.js", summary="Plotly, vendored in service/static/vendor/")
 def plotly() -> FileResponse:
-    try:
-        return _file(plotly_js())
-    except FileNotFoundError as e:
-        raise HTTPException(
-            404, "plotly.min.js is not available: install the plotly package"
-        ) from e
+    return _file(PLOTLY_JS)
 
 
 @router.get("/static/{name}", summary="The playground's script and style sheet")

@@ -1,4 +1,6 @@
-"""/v1/robots: the registered robots, their limits, forward and inverse kinematics."""
+"""/v1/robots: the registered robots, their limits, forward and inverse kinematics (every IK
+solution, configuration labels), and the same for inline robots (POST /v1/fk, /v1/ik,
+/v1/robots/describe with ``robot`` in the body: a registered name or an inline URDF model)."""
 
 from __future__ import annotations
 
@@ -12,16 +14,23 @@ from robots.model import Robot
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
+    DescribeRequest,
     FKRequest,
     FKResponse,
+    IKAllResponse,
+    IKInfo,
     IKRequest,
     IKResponse,
+    IKSolutionOut,
+    InlineFKRequest,
+    InlineIKRequest,
+    LinkFrame,
     RobotDetail,
     RobotLimits,
     RobotSummary,
 )
 
-router = APIRouter(prefix="/v1/robots", tags=["robots"])
+router = APIRouter(tags=["robots"])
 RobotName = Path(pattern=NAME_PATTERN, description="Registered robot name, for example ur5.")
 
 
@@ -54,91 +63,205 @@ def _check_positions(robot: Robot, positions: list[float], field: str) -> np.nda
     return q
 
 
-@router.get("", response_model=list[RobotSummary], summary="Registered robots")
+@router.get("/v1/robots", response_model=list[RobotSummary], summary="Registered robots")
 def list_robots() -> list[dict]:
     return [_summary(registry.get(name)) for name in registry.names()]
 
 
-@router.get(
-    "/{name}",
-    response_model=RobotDetail,
-    responses=PROBLEM_RESPONSES,
-    summary="One robot, with limits",
-)
-def get_robot(name: str = RobotName) -> RobotDetail:
-    robot = registry.get(name)
+def _detail(robot: Robot) -> RobotDetail:
     return RobotDetail(
         **_summary(robot),
         limits=RobotLimits(
             position=robot.position_limits.tolist(),
             velocity=robot.velocity_limits.tolist(),
             acceleration=robot.acceleration_limits.tolist(),
+            jerk=None if robot.jerk_limits is None else robot.jerk_limits.tolist(),
         ),
         home=robot.home.tolist(),
         limit_sources=dict(robot.sources),
+        ik=IKInfo(
+            solver=robot.ik_solver,  # type: ignore[arg-type]
+            max_solutions=robot.max_solutions,
+            redundant_joints=list(robot.redundant_joints),
+        ),
+        configurations=list(robot.configuration_labels),
     )
 
 
+# Registered before GET /v1/robots/{name}: the first route matching a path sets the Allow header of a
+# 405, and "describe" would otherwise match {name}.
 @router.post(
-    "/{name}/fk",
-    response_model=FKResponse,
+    "/v1/robots/describe",
+    response_model=RobotDetail,
     responses=PROBLEM_RESPONSES,
-    summary="Forward kinematics: pose, Jacobian, singular values",
+    summary="The description of any robot, inline URDF models included",
 )
-def forward_kinematics(body: FKRequest, name: str = RobotName) -> FKResponse:
-    robot = registry.get(name)
+def describe_robot(body: DescribeRequest) -> RobotDetail:
+    return _detail(registry.resolve(body.robot))
+
+
+@router.get(
+    "/v1/robots/{name}",
+    response_model=RobotDetail,
+    responses=PROBLEM_RESPONSES,
+    summary="One robot, with limits, its IK solver and configuration labels",
+)
+def get_robot(name: str = RobotName) -> RobotDetail:
+    return _detail(registry.get(name))
+
+
+def _fk(robot: Robot, body: FKRequest) -> FKResponse:
     q = _check_positions(robot, body.positions, "positions")
     if body.frame is None:
         T, J = robot.fk(q), robot.jacobian(q)
     else:
         T, J = robot.frame_pose(q, body.frame), robot.jacobian(q, body.frame)
     s = robot.singular_values(q, J)
+    frames = None
+    if body.frames:
+        frames = []
+        for name, F in robot.link_frames(q):
+            pose = Pose.from_matrix(F)
+            frames.append(
+                LinkFrame(name=name, position=pose.position, orientation=pose.orientation)
+            )
     return FKResponse(
         pose=Pose.from_matrix(T),
         jacobian=J.tolist(),
         min_singular_value=float(s[-1]),
         manipulability=float(np.prod(s)),
+        configuration=robot.configuration(q),
+        frames=frames,
     )
 
 
 @router.post(
-    "/{name}/ik",
-    response_model=IKResponse,
+    "/v1/robots/{name}/fk",
+    response_model=FKResponse,
     responses=PROBLEM_RESPONSES,
-    summary="Inverse kinematics of the tool pose (x, y only for position_xy robots)",
+    summary="Forward kinematics: pose, Jacobian, singular values, configuration label",
 )
-def inverse_kinematics(body: IKRequest, name: str = RobotName) -> IKResponse:
-    robot = registry.get(name)
+def forward_kinematics(body: FKRequest, name: str = RobotName) -> FKResponse:
+    return _fk(registry.get(name), body)
+
+
+@router.post(
+    "/v1/fk",
+    response_model=FKResponse,
+    responses=PROBLEM_RESPONSES,
+    summary="Forward kinematics of any robot (registered name or inline URDF in the body)",
+)
+def forward_kinematics_inline(body: InlineFKRequest) -> FKResponse:
+    return _fk(registry.resolve(body.robot), body)
+
+
+def _ik(robot: Robot, body: IKRequest) -> IKResponse | IKAllResponse:
     seed = None
     if body.seed is not None:
         if len(body.seed) != robot.dof:
             raise InputError(f"seed needs {robot.dof} values, one per joint", field=("seed",))
-        seed = np.asarray(body.seed, dtype=float)
+        lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
+        seed = np.clip(np.asarray(body.seed, dtype=float), lo, hi)
+    labels = robot.configuration_labels
+    if body.configuration is not None and body.configuration not in labels:
+        raise InputError(
+            f"unknown configuration label; {robot.name} has "
+            + (", ".join(labels) if labels else "no configuration labels"),
+            field=("configuration",),
+            extra={"configurations": list(labels)},
+        )
     T = body.pose.as_matrix()
-    result = robot_ik.search(robot, T, seed)
-    if not result.success:
-        free = robot_ik.search(robot, T, seed, respect_limits=False)
-        if free.success:
-            result = free
-        elif free.position_error <= 1e-6 and free.orientation_error <= 1e-6:
-            lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-            j = int(np.argmax(np.maximum(lo - free.positions, free.positions - hi)))
-            raise JointLimit(
-                f"the pose is reachable only with joint '{robot.joint_names[j]}' outside its limits",
-                joint=j,
-                extra={"joint_name": robot.joint_names[j]},
-            )
-        else:
-            raise Unreachable(
-                f"no IK solution within 1e-6 m and 1e-6 rad (best residual "
-                f"{result.position_error:.3g} m, {result.orientation_error:.3g} rad)",
-                extra={
-                    "position_error": result.position_error,
-                    "orientation_error": result.orientation_error,
-                },
-            )
+    found = robot.ik_all(T, seed, body.fixed_joints, turns=body.turns and body.all)
+    keep = [
+        k
+        for k, label in enumerate(found.configurations)
+        if body.configuration is None or label == body.configuration
+    ]
+    if not keep:
+        _no_solution(robot, T, seed, found, body.configuration)
+    solver = found.solver
+    if body.all:
+        return IKAllResponse(
+            solutions=[
+                IKSolutionOut(
+                    positions=found.positions[k].tolist(),
+                    configuration=found.configurations[k],
+                    position_error=float(found.position_errors[k]),
+                    orientation_error=float(found.orientation_errors[k]),
+                )
+                for k in keep
+            ],
+            solver=solver,  # type: ignore[arg-type]
+            warnings=list(found.warnings),
+        )
+    k = keep[0]
     return IKResponse(
-        positions=result.positions.tolist(),
-        position_error=result.position_error,
-        orientation_error=result.orientation_error,
+        positions=found.positions[k].tolist(),
+        position_error=float(found.position_errors[k]),
+        orientation_error=float(found.orientation_errors[k]),
+        configuration=found.configurations[k],
+        solver=solver,  # type: ignore[arg-type]
+        warnings=list(found.warnings),
     )
+
+
+def _no_solution(
+    robot: Robot,
+    T: np.ndarray,
+    seed: np.ndarray | None,
+    found: robot_ik.IKSolutions,
+    configuration: str | None,
+) -> None:
+    """Raise the 422 that says why no solution is returned: other labels only, limits, or reach."""
+    if len(found):
+        existing = sorted({c for c in found.configurations if c is not None})
+        raise Unreachable(
+            "no IK solution with that configuration; this pose has " + ", ".join(existing),
+            field=("configuration",),
+            extra={"configurations": existing},
+        )
+    result = robot_ik.search(robot, T, seed)
+    free = robot_ik.search(robot, T, seed, respect_limits=False)
+    if found.outside_limits or (free.position_error <= 1e-6 and free.orientation_error <= 1e-6):
+        q = free.positions
+        lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
+        j = int(np.argmax(np.maximum(lo - q, q - hi)))
+        raise JointLimit(
+            f"the pose is reachable only with joint '{robot.joint_names[j]}' outside its limits",
+            joint=j,
+            extra={"joint_name": robot.joint_names[j]},
+        )
+    reach = robot.reach_bound()
+    axes = 2 if robot.task_space == "position_xy" else 3  # planar arms: the distance in x, y
+    distance = float(np.linalg.norm((T[:3, 3] - robot.reach_origin())[:axes]))
+    raise Unreachable(
+        f"no IK solution within 1e-9 m and 1e-9 rad (best residual {result.position_error:.3g} m, "
+        f"{result.orientation_error:.3g} rad); the goal is {distance:.3g} m from the first joint, "
+        f"the arm reaches at most {reach:.3g} m",
+        extra={
+            "position_error": result.position_error,
+            "orientation_error": result.orientation_error,
+            "reach": reach,
+            "distance": distance,
+        },
+    )
+
+
+@router.post(
+    "/v1/robots/{name}/ik",
+    response_model=IKResponse | IKAllResponse,
+    responses=PROBLEM_RESPONSES,
+    summary="Inverse kinematics of the tool pose: one solution or every one (all: true)",
+)
+def inverse_kinematics(body: IKRequest, name: str = RobotName) -> IKResponse | IKAllResponse:
+    return _ik(registry.get(name), body)
+
+
+@router.post(
+    "/v1/ik",
+    response_model=IKResponse | IKAllResponse,
+    responses=PROBLEM_RESPONSES,
+    summary="Inverse kinematics of any robot (registered name or inline URDF in the body)",
+)
+def inverse_kinematics_inline(body: InlineIKRequest) -> IKResponse | IKAllResponse:
+    return _ik(registry.resolve(body.robot), body)

@@ -1,6 +1,6 @@
 """/v1/trajectories/joint and /v1/trajectories/spline: joint-space plans.
 
-Thin routes: schema -> numpy (``service.convert``) -> one core call -> response
+Thin routes: schema -> numpy (``service.convert.joint``) -> one core call -> response
 (``service.encoding``).
 Plain ``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
 """
@@ -13,9 +13,9 @@ from fastapi import APIRouter, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.point_to_point import plan_joint
-from core.splines import plan_spline
-from service import convert
+from core.joint.point_to_point import plan_joint
+from core.joint.splines import plan_spline
+from service.convert import joint as convert
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
     TimeFormat,
@@ -32,7 +32,7 @@ RESPONSES = trajectory_responses(TrajectoryResponse)
 @router.post(
     "/joint",
     responses=RESPONSES,
-    summary="Point-to-point joint move: linear, cubic, quintic or trapezoidal profile",
+    summary="Point-to-point joint move: linear, cubic, quintic, trapezoidal or jerk_limited",
 )
 def joint_trajectory(
     body: JointTrajectoryRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
@@ -48,6 +48,7 @@ def joint_trajectory(
         samples=body.samples,
         max_points=request.app.state.settings.max_points,
         joint_names=names,
+        deadline=Deadline(request.app.state.settings.time_budget_s),
     )
     return convert.trajectory_response(
         plan.trajectory, body.profile, plan.warnings, started, time_format

@@ -2,7 +2,7 @@
 
 ``CartesianTaskSpec`` is everything but the method, so ``/v1/compare`` reuses it as its ``task``;
 ``CartesianRequest`` adds ``method``. Every field carries its unit and bounds. Lengths that depend
-on the robot (``start.positions``, ``goal.positions``) are checked in ``service/cartesian_convert.py``.
+on the robot (``start.positions``, ``goal.positions``) are checked in ``service/convert/cartesian.py``.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from core.cartesian.methods import METHODS
 from service.schemas.common import (
     MAX_DURATION,
     JointPositions,
@@ -21,10 +22,9 @@ from service.schemas.common import (
     TrajectoryResponse,
 )
 
-Method = Literal[
-    "sampled", "bounded_deviation", "bounded_deviation_nlp", "resolved_rate", "resolved_rate_dls"
-]
-"""The methods of API.md (``core.cartesian_task.METHODS``; a test keeps the two equal)."""
+Method = Literal[tuple(METHODS)]  # type: ignore[valid-type]
+"""The method names, built from the registry ``core.cartesian.methods.METHODS``: a method added
+there is accepted here, so the API cannot drift from the code."""
 
 MAX_LINEAR_SPEED = 10.0
 """Largest ``max_linear_speed`` [m/s] accepted."""
@@ -137,6 +137,12 @@ class CartesianTaskSpec(StrictModel):
         default=False,
         description="When the line cannot be completed: 200 with the planned prefix (fraction < 1, "
         "diagnostics.failure) instead of 422.",
+    )
+    allow_violations: bool = Field(
+        default=False,
+        description="Accept a plan that leaves the tolerance between its returned points or exceeds "
+        "a joint's acceleration limit (the warnings say where and by how much). Default: such a "
+        "plan is 422 (infeasible or joint_rate_limit) naming the cause and what to change.",
     )
     solver: str = Field(
         default="osqp",

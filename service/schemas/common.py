@@ -131,6 +131,16 @@ TIME_FORMAT_QUERY: Any = Query(
     description="float: time_from_start in seconds; ros: a ROS Duration {sec, nanosec} "
     "(0 <= nanosec < 1e9), converted through integer nanoseconds.",
 )
+
+Layout = Literal["points", "columns"]
+
+LAYOUT_QUERY: Any = Query(
+    "points",
+    description="points: `points`, one ROS-shaped object per sample (default); columns: "
+    '`"layout": "columns"` and the samples as four arrays at the top level: `time_from_start` '
+    "(n), `positions`, `velocities`, `accelerations` (n rows of one value per joint). Same "
+    "numbers; columns is smaller and faster to encode and parse.",
+)
 """The ``?time_format=`` query parameter of every trajectory-returning route."""
 
 

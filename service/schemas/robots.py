@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, StringConstraints
 
-from service.schemas.common import JointPositions, Pose, StrictModel
+from service.schemas.common import JointPositions, Pose, Position, RobotRef, StrictModel
 
 NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
 FrameName = Field(
@@ -34,6 +34,24 @@ class RobotLimits(BaseModel):
     acceleration: list[float] = Field(
         description="Acceleration limit per joint [rad/s^2 or m/s^2]."
     )
+    jerk: list[float] | None = Field(
+        default=None,
+        description="Jerk limit per joint [rad/s^3 or m/s^3]; null where the maker publishes none.",
+    )
+
+
+class IKInfo(BaseModel):
+    solver: Literal["analytic", "numeric"] = Field(
+        description='"analytic": closed form (EAIK subproblems, or the planar arm\'s formula); '
+        '"numeric": damped Newton from several seeds. Every solution is verified by FK to 1e-9.'
+    )
+    max_solutions: int | None = Field(
+        description="Most distinct solutions of one pose without 2 pi turns (8 for 6R arms with a "
+        "wrist, 2 for the planar arm); null where the family does not fix it."
+    )
+    redundant_joints: list[str] = Field(
+        description="Joints IK holds at fixed_joints (else at the seed's value); empty for 6R arms."
+    )
 
 
 class RobotDetail(RobotSummary):
@@ -42,11 +60,26 @@ class RobotDetail(RobotSummary):
     limit_sources: dict[str, str] = Field(
         default_factory=dict, description="Where each kind of limit (and the home pose) comes from."
     )
+    ik: IKInfo
+    configurations: list[str] = Field(
+        description="Every configuration label this robot's IK solutions can carry (docs/robots.md, "
+        '"Configurations"); empty for robots without labels.'
+    )
 
 
 class FKRequest(StrictModel):
     positions: JointPositions
     frame: str | None = FrameName
+    frames: bool = Field(
+        default=False,
+        description="Also return every link frame's pose in kinematic order (to draw the arm).",
+    )
+
+
+class LinkFrame(BaseModel):
+    name: str = Field(description="Link name.")
+    position: list[float] = Field(description="[x, y, z] in the base frame [m].")
+    orientation: list[float] = Field(description="Unit quaternion [x, y, z, w], w >= 0.")
 
 
 class FKResponse(BaseModel):
@@ -60,6 +93,13 @@ class FKResponse(BaseModel):
         "position_xy); 0 at a singularity."
     )
     manipulability: float = Field(description="sqrt(det(J J^T)) over the task rows.")
+    configuration: str | None = Field(
+        default=None,
+        description="Configuration label of the positions (docs/robots.md); null without labels.",
+    )
+    frames: list[LinkFrame] | None = Field(
+        default=None, description='With "frames": true, every link frame in kinematic order.'
+    )
 
 
 class IKRequest(StrictModel):
@@ -68,6 +108,27 @@ class IKRequest(StrictModel):
         default=None,
         description="Start of the search [rad or m] (default the robot's home); the solution nearest "
         "it is preferred. Values outside the joint limits are clipped into them.",
+    )
+    all: bool = Field(
+        default=False,
+        description="Return every distinct solution within the joint limits, nearest the seed first.",
+    )
+    configuration: str | None = Field(
+        default=None,
+        min_length=1,
+        max_length=64,
+        description="Only solutions with this configuration label (GET /v1/robots/{name} lists them).",
+    )
+    turns: bool = Field(
+        default=False,
+        description="With all: also every 2 pi variant of each solution within the limits.",
+    )
+    fixed_joints: (
+        dict[Annotated[str, StringConstraints(min_length=1, max_length=256)], Position] | None
+    ) = Field(
+        default=None,
+        max_length=64,
+        description="Values [rad or m] of redundant joints to hold (default: the seed's values).",
     )
 
 
@@ -79,3 +140,41 @@ class IKResponse(BaseModel):
     orientation_error: float = Field(
         description="Residual orientation error [rad] (0 for position_xy)."
     )
+    configuration: str | None = Field(
+        default=None, description="Configuration label of the solution; null without labels."
+    )
+    solver: Literal["analytic", "numeric"] | None = Field(
+        default=None, description="The solver that found it."
+    )
+    warnings: list[str] = Field(
+        default_factory=list, description="E.g. a near-singular pose (representatives returned)."
+    )
+
+
+class IKSolutionOut(BaseModel):
+    positions: list[float] = Field(description="Joint positions [rad or m].")
+    configuration: str | None = Field(description="Configuration label; null without labels.")
+    position_error: float = Field(description="Tip position error [m], <= 1e-9.")
+    orientation_error: float = Field(description="Orientation error [rad], <= 1e-9.")
+
+
+class IKAllResponse(BaseModel):
+    solutions: list[IKSolutionOut] = Field(
+        description="Every distinct solution within the joint limits, nearest the seed first."
+    )
+    solver: Literal["analytic", "numeric"] = Field(description="The solver that found them.")
+    warnings: list[str] = Field(
+        default_factory=list, description="E.g. a near-singular pose (representatives returned)."
+    )
+
+
+class InlineFKRequest(FKRequest):
+    robot: RobotRef
+
+
+class InlineIKRequest(IKRequest):
+    robot: RobotRef
+
+
+class DescribeRequest(StrictModel):
+    robot: RobotRef

@@ -1,8 +1,8 @@
 """Requests of the joint-space trajectory endpoints: point-to-point profiles and splines.
 
 Every field carries its unit and bounds (shown on the OpenAPI page). Lengths that must agree (start,
-goal, velocities, limits, waypoints, the robot's joints) are checked in ``service/convert.py`` and
-``core/``, which answer 422 naming the field.
+goal, velocities, limits, waypoints, the robot's joints) are checked in ``service/convert/joint.py``
+and ``core/``, which answer 422 naming the field. The profile names come from ``PROFILES``.
 """
 
 from __future__ import annotations
@@ -11,10 +11,13 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from core.splines import MIN_KNOT_SPACING
-from core.timing import MIN_DURATION
+from core.joint.durations import MIN_DURATION
+from core.joint.profiles import PROFILES
+from core.joint.splines import MIN_KNOT_SPACING
 from service.schemas.common import (
     MAX_DURATION,
+    MAX_JOINTS,
+    MIN_LIMIT,
     JointAccelerations,
     JointPositions,
     JointVelocities,
@@ -27,7 +30,9 @@ from service.schemas.common import (
 MAX_WAYPOINTS = 10_000
 """Most waypoints of one spline request."""
 
-Profile = Literal["linear", "cubic", "quintic", "trapezoidal"]
+MAX_JERK = 1e8
+"""Largest joint jerk limit [rad/s^3 or m/s^3] accepted."""
+Profile = Literal[tuple(PROFILES)]  # type: ignore[valid-type]
 Boundary = Literal["clamped", "natural", "not-a-knot"]
 KnotTime = Annotated[float, Field(ge=0.0, le=MAX_DURATION)]
 
@@ -42,6 +47,19 @@ LIMITS_DESCRIPTION = (
     "per joint; each list given replaces the robot's. Needed (here or from a robot) unless the "
     "timing is given."
 )
+PositiveJerk = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_JERK)]
+
+
+class JointLimitsIn(Limits):
+    """Per-joint limits of a point-to-point move, with jerk (used by ``jerk_limited`` only)."""
+
+    jerk: list[PositiveJerk] | None = Field(
+        default=None,
+        min_length=1,
+        max_length=MAX_JOINTS,
+        description="Jerk limits [rad/s^3 or m/s^3], 1e-6 to 1e8, one per joint; replaces the "
+        "robot's. jerk_limited needs them (here or from the robot: Panda 7500 rad/s^3).",
+    )
 
 
 class BoundaryState(StrictModel):
@@ -53,12 +71,12 @@ class BoundaryState(StrictModel):
     velocities: JointVelocities | None = Field(
         default=None,
         description="Joint velocities [rad/s or m/s], each |.| <= 1e4; default zeros. Non-zero "
-        "only for cubic and quintic.",
+        "only for cubic, quintic and jerk_limited.",
     )
     accelerations: JointAccelerations | None = Field(
         default=None,
         description="Joint accelerations [rad/s^2 or m/s^2], each |.| <= 1e6; default zeros. "
-        "Non-zero only for quintic.",
+        "Non-zero only for quintic and jerk_limited.",
     )
 
 
@@ -67,9 +85,11 @@ class JointTrajectoryRequest(Sampling):
 
     robot: RobotRef | None = Field(default=None, description=ROBOT_DESCRIPTION)
     profile: Profile = Field(
-        description="linear (constant velocity; velocity steps at the ends), cubic, quintic, or "
+        description="linear (constant velocity; velocity steps at the ends), cubic, quintic, "
         "trapezoidal (synchronized: the slowest joint sets the duration, a triangle when the "
-        "cruise speed is not reached)."
+        "cruise speed is not reached), or jerk_limited (Ruckig: time-optimal under velocity, "
+        "acceleration and jerk limits, any boundary velocities and accelerations, every joint "
+        "finishing together)."
     )
     start: BoundaryState = Field(description="State at t = 0.")
     goal: BoundaryState = Field(description="State at t = duration.")
@@ -78,10 +98,11 @@ class JointTrajectoryRequest(Sampling):
         ge=MIN_DURATION,
         le=MAX_DURATION,
         description="Duration [s], 1e-3 <= duration <= 1e5. Absent: the shortest duration that "
-        "keeps every joint within the velocity and acceleration limits (a duration that breaks "
-        "known limits is 422 joint_rate_limit).",
+        "keeps every joint within the velocity and acceleration (and, for jerk_limited, jerk) "
+        "limits. A duration that breaks known limits is 422 joint_rate_limit (jerk_limited: 422 "
+        "infeasible naming the shortest feasible duration).",
     )
-    limits: Limits | None = Field(default=None, description=LIMITS_DESCRIPTION)
+    limits: JointLimitsIn | None = Field(default=None, description=LIMITS_DESCRIPTION)
 
 
 class SplineRequest(Sampling):

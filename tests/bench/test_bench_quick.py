@@ -66,7 +66,7 @@ def test_cli_rejects_unknown_tasks() -> None:
 
 def test_p1_rows_agree_before_timing() -> None:
     from bench.joint import Q0, Q1, quintic_reference
-    from core.point_to_point import PointToPoint, plan_joint
+    from core.joint.point_to_point import PointToPoint, plan_joint
 
     _, q, qd, qdd = quintic_reference(Q0, Q1, 2.0, 101)
     tr = plan_joint("quintic", PointToPoint.create(Q0, Q1), duration=2.0, samples=101).trajectory

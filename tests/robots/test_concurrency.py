@@ -15,7 +15,11 @@ def work(args):
     fk = np.array([robot.fk(q) for q in qs])
     jac = np.array([robot.jacobian(q) for q in qs])
     ik = np.array([robot.ik(T, q + 0.05).positions for T, q in zip(fk, qs, strict=True)])
-    return fk, jac, ik, robot.fk_many(qs)
+    # every solution (EAIK, with the Panda's held-joint solver cache shared between threads)
+    every = [robot.ik_all(T, q + 0.05) for T, q in zip(fk[:10], qs[:10], strict=True)]
+    solutions = np.concatenate([s.positions for s in every])
+    labels = np.array([str(c) for s in every for c in s.configurations])
+    return fk, jac, ik, robot.fk_many(qs), solutions, labels
 
 
 def test_eight_threads_agree_with_serial() -> None:

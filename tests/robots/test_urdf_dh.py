@@ -58,7 +58,7 @@ DH = {
     "planar_2r": lambda q: standard_dh(q, [0, 0], [1.0, 0.8], [0, 0]),
     "puma560": lambda q: standard_dh(
         q,
-        [0.6718, 0, 0.15005, 0.4318, 0, 0],
+        [26.45 * 0.0254, 0, 0.15005, 0.4318, 0, 0],  # Robotics Toolbox: 26.45 in
         [0, 0.4318, 0.0203, 0, 0, 0],
         [PI / 2, 0, -PI / 2, PI / 2, -PI / 2, 0],
     ),
@@ -79,7 +79,7 @@ DH = {
 
 LIMITS = {
     "planar_2r": [(-PI, PI)] * 2,
-    "puma560": [
+    "puma560": [  # also the Robotics Toolbox qlim, checked below
         (a * DEG, b * DEG)
         for a, b in [(-160, 160), (-45, 225), (-225, 45), (-110, 170), (-100, 100), (-266, 266)]
     ],
@@ -174,3 +174,15 @@ def test_registry_names_and_unknown_robot() -> None:
     assert err.value.extra["available"] == registry.names()
     assert registry.get("ur5") is registry.get("ur5")
     assert registry.resolve("ur5") is registry.get("ur5")
+
+
+def test_puma560_equals_the_cited_robotics_toolbox_model() -> None:
+    """The URDF cites Corke's Robotics Toolbox: its Puma560 (base 26.45 in = 0.67183 m) gives the same
+    tool pose, and the same position limits, at 200 configurations."""
+    rtb = pytest.importorskip("roboticstoolbox")
+    reference = rtb.models.DH.Puma560()
+    robot = registry.get("puma560")
+    qs = random_q(robot, 200, seed=3)
+    expected = np.array([reference.fkine(q).A for q in qs])
+    assert np.abs(robot.fk_many(qs) - expected).max() <= 1e-12
+    np.testing.assert_allclose(robot.position_limits, reference.qlim.T, rtol=0, atol=1e-6)

@@ -8,32 +8,20 @@ for the NLP on the issue's UR5 move, ``?time_format=ros`` knots, and the errors 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation, Slerp
 
-from core.geometry.so3 import matrix_to_quat
 from robots import registry
 from service.app import create_app
 from service.settings import Settings
 from tests.ros_rules import check_ros_trajectory
+from tests.service.conftest import pose_body
 
 URL = "/v1/trajectories/cartesian"
 METHODS = ("bounded_deviation", "bounded_deviation_nlp")
 TOLERANCE = {"position": 1e-3, "orientation": 1e-2}
-
-
-@pytest.fixture(scope="module")
-def client() -> Iterator[TestClient]:
-    with TestClient(create_app(Settings())) as test_client:
-        yield test_client
-
-
-def pose_of(T: np.ndarray) -> dict[str, list[float]]:
-    return {"position": T[:3, 3].tolist(), "orientation": matrix_to_quat(T[:3, :3]).tolist()}
 
 
 def ur5_request(method: str, **extra) -> dict:
@@ -48,7 +36,7 @@ def ur5_request(method: str, **extra) -> dict:
     body = {
         "robot": "ur5",
         "start": {"positions": robot.home.tolist()},
-        "goal": {"pose": pose_of(T)},
+        "goal": {"pose": pose_body(T)},
         "method": method,
         "tolerance": TOLERANCE,
     }
@@ -159,7 +147,7 @@ def test_planar_arm_through_its_hole_is_unreachable_or_partial(client, method):
     request = {
         "robot": "planar_2r",
         "start": {"positions": start.tolist()},
-        "goal": {"pose": pose_of(T_goal)},
+        "goal": {"pose": pose_body(T_goal)},
         "method": method,
     }
     response = client.post(URL, json=request)

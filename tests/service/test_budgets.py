@@ -15,13 +15,17 @@ Where the time goes and what bounds it:
   1e-4 s over 40 s is 400,000 ticks.
 - every Cartesian method: ``finish`` measures the returned trajectory densely (10 checks per
   interval: 1.1 million FK evaluations and slerps for 100,000 points), ``MEASURE_CHUNK`` points at a
-  time with the deadline checked between chunks (``core.cartesian_task.measure``).
+  time with the deadline checked between chunks (``core.cartesian.check.measure``).
 - ``/v1/compare``: each method has its own budget, so at most (methods x budget) + encoding.
 - ``/v1/trajectories/joint``, ``/spline``, ``/v1/robots/{name}/fk``, ``/ik``: fast by construction.
   Their sizes are bounded by the schema (64 joints, 10,000 waypoints, 100,000 points); the spline's
   time allocation also checks the deadline. IK is at most 17 seeded solves of at most 100 iterations
   each, twice (within and without limits): about 0.1 s for an unreachable pose. Measured worst cases
   are in ``bench/RESULTS.md`` ("Reliability").
+- every trajectory answer (``service.encoding.json_response``): the request's deadline is checked
+  before encoding (the joint route's only check), then admission by estimated size: over
+  ``TRAJ_MAX_RESPONSE_BYTES`` 422 ``too_large``, over the worker's ``TRAJ_RESPONSE_BUDGET_BYTES``
+  in flight 503 ``overloaded`` with ``Retry-After``.
 """
 
 from __future__ import annotations
@@ -37,13 +41,16 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core import cartesian_task
 from core.budget import Deadline
-from core.cartesian_task import MEASURE_CHUNK, CartesianTask, measure
-from core.deviation import measure_deviation
+from core.cartesian.check import measure
+from core.cartesian.measure import MEASURE_CHUNK, measure_deviation
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianTask
 from core.errors import TimeBudgetExceeded
 from robots import registry
+from service import encoding
 from service.app import create_app
+from service.errors import Overloaded
 from service.settings import Settings
 from tests.service.helpers import problem
 
@@ -184,7 +191,8 @@ def test_compare_is_bounded_by_methods_times_budget() -> None:
 
 def test_solver_caps_sit_below_the_budget() -> None:
     """IPOPT, OSQP and IK stop on iteration caps (and IPOPT on a wall-time cap) of their own."""
-    from core import deviation_nlp, rate_qp
+    from core.cartesian import knot_nlp as deviation_nlp
+    from core.cartesian.rate import qp as rate_qp
     from robots import ik, model
 
     default_budget = Settings().time_budget_s
@@ -242,7 +250,7 @@ def test_chunked_measurement_equals_one_measurement() -> None:
         q_goal=np.array(UR5_GOAL),
         samples=2 * MEASURE_CHUNK + 17,
     )
-    result = cartesian_task.plan(task, "resolved_rate")
+    result = plan(task, "resolved_rate")
     traj = result.trajectory
     assert len(traj.times) > 2 * MEASURE_CHUNK
     whole = measure_deviation(ur5, task.line(), traj)
@@ -255,3 +263,76 @@ def test_chunked_measurement_equals_one_measurement() -> None:
     assert chunked.s.shape == whole.s.shape
     with pytest.raises(TimeBudgetExceeded, match="dense deviation measurement"):
         measure(dataclasses.replace(task, deadline=Deadline(0.0)), traj)
+
+
+# ------------------------------------------------ issue 19 item 4: every route, response memory
+
+WIDE_JOINT = {
+    "profile": "quintic",
+    "start": {"positions": [0.0] * 8},
+    "goal": {"positions": [1.0] * 8},
+    "duration": 2.0,
+    "samples": 20_000,
+}
+
+
+def problem_of(response: Any, status: int, code: str) -> dict[str, Any]:
+    assert response.status_code == status, response.text[:500]
+    assert response.headers["content-type"] == "application/problem+json"
+    body = response.json()
+    assert body["code"] == code and body["status"] == status, body
+    return body
+
+
+def test_the_joint_route_has_a_deadline_too() -> None:
+    with TestClient(create_app(Settings(time_budget_s=1e-9, access_log=False))) as c:
+        problem_of(c.post("/v1/trajectories/joint", json=WIDE_JOINT), 422, "time_budget_exceeded")
+
+
+def test_a_response_over_the_per_request_cap_is_too_large_before_encoding() -> None:
+    estimate = encoding.estimate_bytes(
+        {"joint_names": ["j"] * 8, "time_from_start": np.zeros(20_000)}
+    )
+    settings = Settings(max_response_bytes=estimate - 1, access_log=False)
+    with TestClient(create_app(settings)) as c:
+        body = problem_of(c.post("/v1/trajectories/joint", json=WIDE_JOINT), 422, "too_large")
+        assert body["estimated_bytes"] == estimate and body["limit_bytes"] == estimate - 1
+        smaller = {**WIDE_JOINT, "samples": 19_000}
+        assert c.post("/v1/trajectories/joint", json=smaller).status_code == 200
+        columns = c.post("/v1/trajectories/joint?layout=columns", json=WIDE_JOINT)
+        problem_of(columns, 422, "too_large")  # the cap does not depend on the layout
+    assert encoding.RESPONSE_BUDGET.in_flight == 0
+
+
+def test_a_response_over_the_workers_budget_is_503_with_retry_after() -> None:
+    settings = Settings(response_budget_bytes=10_000_000, access_log=False)
+    with TestClient(create_app(settings)) as c:
+        held = encoding.RESPONSE_BUDGET.reserve(9_000_000, None)  # another response in flight
+        try:
+            response = c.post("/v1/trajectories/joint", json=WIDE_JOINT)
+            body = problem_of(response, 503, "overloaded")
+            assert response.headers["retry-after"] == "1" and body["retry_after_s"] == 1
+            tiny = {**WIDE_JOINT, "samples": 10}  # fits beside the other one
+            assert c.post("/v1/trajectories/joint", json=tiny).status_code == 200
+        finally:
+            held.release()
+        # alone, even a response above the budget is admitted (the per-request cap bounds it)
+        assert c.post("/v1/trajectories/joint", json=WIDE_JOINT).status_code == 200
+        big = {**WIDE_JOINT, "samples": 100_000}  # streamed
+        assert len(c.post("/v1/trajectories/joint", json=big).content) > 10_000_000
+    assert encoding.RESPONSE_BUDGET.in_flight == 0  # every reservation returned
+
+
+def test_the_budget_admits_in_parallel_exactly_what_fits() -> None:
+    budget = encoding.ResponseBudget()
+    first = budget.reserve(600, 1000)
+    with pytest.raises(Overloaded):
+        budget.reserve(500, 1000)
+    second = budget.reserve(400, 1000)
+    assert budget.in_flight == 1000
+    first.release()
+    first.release()  # idempotent
+    assert budget.in_flight == 400
+    second.release()
+    assert budget.in_flight == 0
+    assert budget.reserve(5000, 1000).nbytes == 5000  # alone: admitted

@@ -13,14 +13,16 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
-from core.cartesian_task import METHODS
+from core.cartesian.methods import METHODS
 from core.geometry.so3 import pose_to_matrix
 from robots import registry
 from service.app import create_app
 from service.schemas.cartesian import Method
 from service.settings import Settings
+from tests.core.conftest import offset_move
 from tests.ros_rules import check_ros_trajectory
-from tests.toy_kinematics import ToyPlanar2R
+from tests.service.conftest import pose_body
+from tests.toy_kinematics import FlippingToy
 
 URL = "/v1/trajectories/cartesian"
 UR5_HOME = [0.0, -math.pi / 3, math.pi / 2, -2 * math.pi / 3, -math.pi / 2, 0.0]
@@ -39,12 +41,6 @@ HOLE_LINE = {
     "method": "sampled",
 }
 S_HOLE = (0.8 - math.sqrt(0.2**2 - 0.05**2)) / 1.6
-
-
-@pytest.fixture(scope="module")
-def client():
-    with TestClient(create_app(Settings())) as c:
-        yield c
 
 
 def problem(response, status: int, code: str) -> dict:
@@ -281,20 +277,8 @@ def test_time_budget_exceeded():
         problem(c.post(URL, json=UR5_LINE), 422, "time_budget_exceeded")
 
 
-class _FlippingArm(ToyPlanar2R):
-    """A toy arm whose IK jumps to the other elbow branch past x = 1.1 m."""
-
-    def ik(self, T_base_tool, seed, **kw):
-        r = super().ik(T_base_tool, seed, **kw)
-        if T_base_tool[0, 3] <= 1.1:
-            return r
-        q1, q2 = r.positions
-        other = np.array([q1 + 2 * math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), -q2])
-        return r._replace(positions=other)
-
-
 def test_branch_flip(client, monkeypatch):
-    monkeypatch.setattr(registry, "resolve", lambda ref: _FlippingArm())
+    monkeypatch.setattr(registry, "resolve", lambda ref: FlippingToy())
     request = {
         "robot": "planar_2r",
         "start": {"positions": [0.2, 1.4]},
@@ -315,3 +299,31 @@ def test_openapi_documents_the_endpoint(client):
         assert name in props
     for name in ("duration", "max_linear_speed", "samples", "control_period"):
         assert props[name].get("description")
+
+
+def _panda_line(**extra) -> dict:
+    """Issue 19's repro: a Panda line (0.27 m, 30 degrees) timed tightly or sampled sparsely."""
+    panda = registry.get("panda")
+    T = offset_move(panda, panda.home, np.array([0.2, 0.1, -0.15]), (1.0, 0.0, 1.0), np.radians(30))
+    body = {
+        "robot": "panda",
+        "start": {"positions": panda.home.tolist()},
+        "goal": {"pose": pose_body(T)},
+        "method": "sampled",
+    }
+    return {**body, **extra}
+
+
+@pytest.mark.parametrize(
+    ("extra", "code"),
+    [
+        ({"duration": 0.71, "sample_period": 0.05}, "joint_rate_limit"),  # accelerations 1.2x
+        ({"duration": 2.0, "samples": 4}, "infeasible"),  # 2.6 mm between 4 points
+    ],
+)
+def test_a_200_is_within_tolerance_and_limits_unless_violations_are_allowed(client, extra, code):
+    body = problem(client.post(URL, json=_panda_line(**extra)), 422, code)
+    assert "allow_violations" in body["detail"]
+    allowed = client.post(URL, json=_panda_line(allow_violations=True, **extra))
+    assert allowed.status_code == 200, allowed.text
+    assert allowed.json()["diagnostics"]["warnings"], "an accepted violation is reported"

@@ -6,14 +6,10 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core.cartesian_task import METHODS
+from core.cartesian.methods import METHODS
 from robots import registry
 from service.app import create_app
-
-
-@pytest.fixture(scope="module")
-def client():
-    return TestClient(create_app())
+from tests.service.conftest import pose_body
 
 
 def _ur5_task(**extra):
@@ -21,13 +17,10 @@ def _ur5_task(**extra):
     q0 = ur5.home
     T = ur5.fk(q0)
     T[:3, 3] += [0.05, 0.05, -0.03]
-    from core.geometry.so3 import matrix_to_pose
-
-    position, orientation = matrix_to_pose(T)
     task = {
         "robot": "ur5",
         "start": {"positions": q0.tolist()},
-        "goal": {"pose": {"position": list(position), "orientation": list(orientation)}},
+        "goal": {"pose": pose_body(T)},
         "duration": 1.0,
     }
     task.update(extra)
@@ -104,3 +97,30 @@ def test_bad_compare_requests(client, body, status, code):
     assert r.status_code == status
     assert r.headers["content-type"].startswith("application/problem+json")
     assert r.json()["code"] == code
+
+
+def test_the_whole_compare_request_shares_one_deadline(monkeypatch):
+    """One budget for the request: once a slow first method has spent it, every later method
+    answers time_budget_exceeded at once (with a budget per method each would plan in full)."""
+    import time as _time
+
+    from core.cartesian import methods
+    from service.settings import Settings
+
+    budget = 0.5
+
+    def slow_sampled(task):
+        _time.sleep(1.2 * budget)
+        return methods.plan_sampled(task)
+
+    monkeypatch.setitem(methods.METHODS, "sampled", slow_sampled)
+    with TestClient(create_app(Settings(time_budget_s=budget))) as c:
+        started = _time.perf_counter()
+        r = c.post("/v1/compare", json={"task": _ur5_task()})
+        elapsed = _time.perf_counter() - started
+    assert r.status_code == 200, r.text
+    rows = r.json()["results"]
+    assert [row["method"] for row in rows] == list(METHODS)
+    assert all(not row["ok"] for row in rows), rows
+    assert {row["diagnostics"]["code"] for row in rows} == {"time_budget_exceeded"}
+    assert elapsed < 1.2 * budget + 0.5  # the sleep, then nothing more than error rows

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -166,7 +167,11 @@ def test_dockerfile_is_multi_stage_non_root_with_a_health_check() -> None:
     assert len(re.findall(r"^FROM ", DOCKERFILE, flags=re.MULTILINE)) >= 2
     final = _final_stage()
     assert "COPY --from=builder" in final
-    assert not re.search(r"apt-get install|build-essential|gcc|\bpip install\b", final)
+    assert not re.search(r"build-essential|gcc|\bpip install\b", final)
+    # One system package and nothing else: the OpenMP runtime pinocchio's wheel links against.
+    joined = re.sub(r"\\\n\s*", " ", final)
+    installs = re.findall(r"apt-get install((?: -{1,2}[\w-]+)*)((?: [\w.+-]+)+)", joined)
+    assert [packages.split() for _, packages in installs] == [["libgomp1"]], installs
     (url,) = LOCAL_URL.findall(_dockerfile_instruction("HEALTHCHECK"))
     assert int(url[0]) == _image_port() and url[1] == "/health" and url[1] in get_routes()
     for var in THREAD_VARS:
@@ -186,3 +191,149 @@ def test_hadolint_is_clean() -> None:
         [_hadolint(), str(REPO / "Dockerfile")], capture_output=True, text=True, timeout=60
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def _project_version() -> str:
+    match = re.search(r'^version = "([^"]+)"$', (REPO / "pyproject.toml").read_text(), re.M)
+    assert match
+    return match.group(1)
+
+
+def test_compose_kubernetes_and_the_build_script_name_one_image() -> None:
+    """deploy/build_and_run.sh tags trajectory-service:<pyproject version>; compose and the
+    Deployment run exactly that image."""
+    image = f"trajectory-service:{_project_version()}"
+    script = (DEPLOY / "build_and_run.sh").read_text()
+    assert 'IMAGE="${IMAGE:-trajectory-service:${VERSION}}"' in script
+    assert "sed -n 's/^version = " in script  # VERSION is read from pyproject.toml
+    assert COMPOSE["services"]["api"]["image"] == image
+    assert _container()["image"] == image
+
+
+def test_the_scripts_smoke_request_matches_the_robot() -> None:
+    """The UR5 start the smoke check hard-codes is the registered home (it uses HTTP only)."""
+    sys.path.insert(0, str(DEPLOY))
+    try:
+        import smoke_check
+    finally:
+        sys.path.remove(str(DEPLOY))
+    from robots import registry
+
+    assert smoke_check.UR5_HOME == pytest.approx(registry.get("ur5").home.tolist(), abs=1e-15)
+
+
+def test_the_smoke_check_passes_against_the_app_and_fails_on_a_wrong_answer(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """deploy/smoke_check.py, with its HTTP calls served by the app in-process: every check holds;
+    with one joint position of the answer moved by 1e-6 rad, it fails."""
+    sys.path.insert(0, str(DEPLOY))
+    try:
+        import smoke_check
+    finally:
+        sys.path.remove(str(DEPLOY))
+    client = TestClient(create_app())
+
+    def post(base: str, path: str, body: dict[str, Any]) -> tuple[int, dict[str, Any], float]:
+        r = client.post(path, json=body)
+        return r.status_code, r.json(), 0.0
+
+    monkeypatch.setattr(smoke_check, "post", post)
+    monkeypatch.setattr(smoke_check, "failures", [])
+    assert smoke_check.main(["smoke_check.py", "http://testserver"]) == 0
+
+    def post_off(base: str, path: str, body: dict[str, Any]) -> tuple[int, dict[str, Any], float]:
+        status, answer, wall = post(base, path, body)
+        answer["points"][len(answer["points"]) // 2]["positions"][0] += 1e-6
+        return status, answer, wall
+
+    monkeypatch.setattr(smoke_check, "post", post_off)
+    monkeypatch.setattr(smoke_check, "failures", [])
+    smoke_check.joint_plan("http://testserver")
+    assert smoke_check.failures and "closed-form quintic" in smoke_check.failures[0]
+
+
+def test_kubernetes_manifests_validate_against_the_kubernetes_schema() -> None:
+    """Strict schemas (unknown fields rejected) shipped in the kubernetes-validate package."""
+    kv = pytest.importorskip("kubernetes_validate")
+    version = kv.utils.latest_version()
+    for doc in K8S.values():
+        kv.validate(doc, version, strict=True)
+    broken = json.loads(json.dumps(K8S["Deployment"]))
+    broken["spec"]["template"]["spec"]["containers"][0]["readinessProb"] = {}
+    with pytest.raises(kv.ValidationError):
+        kv.validate(broken, version, strict=True)
+
+
+def test_compose_file_validates_against_the_compose_specification() -> None:
+    """The compose-spec JSON schema that check-jsonschema ships (what `docker compose config`
+    checks); podman 4.3 on Debian bookworm has no `podman compose`."""
+    pytest.importorskip("check_jsonschema")
+    jsonschema = pytest.importorskip("jsonschema")
+    from importlib.resources import files
+
+    schema = json.loads(
+        files("check_jsonschema.builtin_schemas.vendor").joinpath("compose-spec.json").read_text()
+    )
+    validator = jsonschema.validators.validator_for(schema)(schema)
+    assert not list(validator.iter_errors(COMPOSE))
+    broken = json.loads(json.dumps(COMPOSE))
+    broken["services"]["api"]["healthcheck"]["intervall"] = "10s"
+    assert list(validator.iter_errors(broken))
+
+
+def test_slim_venv_removes_build_files_and_links_identical_copies(tmp_path: Path) -> None:
+    """deploy/slim_venv.py on a small tree: what goes, what stays, and every symlink reads the same
+    bytes as the file it replaced."""
+    site = tmp_path / "lib" / "python3.11" / "site-packages"
+    lib = site / "pkg"
+    (lib / "include").mkdir(parents=True)
+    (lib / "include" / "pkg.h").write_text("int f(void);\n")
+    (lib / "includes_python" / "include").mkdir(parents=True)
+    (lib / "includes_python" / "include" / "__init__.py").write_text("X = 1\n")
+    (lib / "tests").mkdir()
+    (lib / "tests" / "test_x.py").write_text("def test(): pass\n")
+    (lib / "__init__.py").write_text("")
+    (lib / "libfoo.a").write_bytes(b"a" * 5000)
+    payload = bytes(range(256)) * 64
+    for name in ("libfoo.so", "libfoo.so.3", "libfoo.so.3.7"):
+        (lib / name).write_bytes(payload)
+    (lib / "other.so").write_bytes(payload[::-1])
+    (tmp_path / "unrelated" / "tests").mkdir(parents=True)  # not inside a package: kept
+    result = subprocess.run(
+        [sys.executable, str(DEPLOY / "slim_venv.py"), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    )
+    assert "MB ->" in result.stdout
+    assert not (lib / "include").exists() and not (lib / "tests").exists()
+    assert not (lib / "libfoo.a").exists()
+    assert (lib / "includes_python" / "include" / "__init__.py").is_file()
+    assert (tmp_path / "unrelated" / "tests").is_dir()
+    links = [p for p in lib.glob("libfoo.so*") if p.is_symlink()]
+    assert len(links) == 2
+    for name in ("libfoo.so", "libfoo.so.3", "libfoo.so.3.7"):
+        assert (lib / name).read_bytes() == payload
+    assert not (lib / "other.so").is_symlink()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("podman") is None, reason="podman is not installed")
+def test_the_image_builds_runs_and_plans(tmp_path: Path) -> None:
+    """deploy/build_and_run.sh end to end: build (stand-in base without Docker Hub), HEALTHCHECK,
+    the three plans, non-root; prints the build time and image size."""
+    timing = tmp_path / "timing.txt"
+    result = subprocess.run(
+        ["bash", str(DEPLOY / "build_and_run.sh")],
+        capture_output=True,
+        text=True,
+        timeout=1800,
+        env={**os.environ, "TIMING_FILE": str(timing)},
+        check=False,
+    )
+    tail = (result.stdout + result.stderr)[-4000:]
+    assert result.returncode == 0, tail
+    assert "smoke check: every plan checked" in result.stdout, tail
+    print(timing.read_text())

@@ -176,6 +176,44 @@ def api_routes(routes: list, prefix: str = "") -> Iterator[tuple[str, APIRoute]]
             )
 
 
+def schema_fields(schema: dict, components: dict, seen: set[str]) -> Iterator[str]:
+    """Every property name in an OpenAPI schema, following ``$ref`` (each component once)."""
+    if "$ref" in schema:
+        name = schema["$ref"].rsplit("/", 1)[-1]
+        if name not in seen:
+            seen.add(name)
+            yield from schema_fields(components[name], components, seen)
+        return
+    for key in ("anyOf", "oneOf", "allOf"):
+        for sub in schema.get(key, []):
+            yield from schema_fields(sub, components, seen)
+    for key in ("items", "additionalProperties"):
+        if isinstance(schema.get(key), dict):
+            yield from schema_fields(schema[key], components, seen)
+    for name, sub in schema.get("properties", {}).items():
+        yield name
+        yield from schema_fields(sub, components, seen)
+
+
+def test_every_request_field_and_query_parameter_is_documented(client: TestClient) -> None:
+    """Each field of each request body (nested ones too) and each query parameter of the live app
+    is named in docs/api.md as `field`."""
+    schema = client.get("/openapi.json").json()
+    components = schema.get("components", {}).get("schemas", {})
+    text = api_text()
+    missing = {}
+    for path, operations in schema["paths"].items():
+        for method, operation in operations.items():
+            content = operation.get("requestBody", {}).get("content", {})
+            body = content.get("application/json", {}).get("schema")
+            names = set(schema_fields(body, components, set())) if body else set()
+            names |= {p["name"] for p in operation.get("parameters", []) if p["in"] == "query"}
+            absent = sorted(n for n in names if f"`{n}`" not in text)
+            if absent:
+                missing[f"{method.upper()} {path}"] = absent
+    assert not missing, f"request fields not named in docs/api.md: {missing}"
+
+
 def test_endpoint_parser_reads_headings_only() -> None:
     text = "## `POST /v1/x/{name}/fk`, `GET /v1/y`\nPOST /v1/not-a-heading\n### GET /\n"
     assert documented_endpoints(text) == {

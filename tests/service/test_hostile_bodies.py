@@ -297,7 +297,7 @@ def test_undeclared_methods_are_405_with_allow(client: TestClient) -> None:
     ):
         response = client.request(method, url)
         body = hostile(response, (405,))
-        assert body["code"] == "validation"
+        assert body["code"] == "method_not_allowed"
         assert allowed in response.headers["allow"], response.headers
 
 
@@ -320,3 +320,79 @@ def test_subnormal_sample_period_is_too_large_not_a_crash(client: TestClient, ur
     for period in (5e-324, 1e-300, 1e-12):
         problem = hostile(client.post(url, json={**body, "sample_period": period}))
         assert problem["code"] == "too_large", problem
+
+
+# ----------------------------------------------------------------- issue 19, items 1 and 7
+
+
+def one_joint_urdf(velocity: str = "1", effort: str = "1", name: str = "shoulder") -> str:
+    return (
+        "<robot name='r'><link name='l0'/><link name='l1'/>"
+        f'<joint name="{name}" type="revolute"><parent link="l0"/><child link="l1"/>'
+        f'<axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="{velocity}" effort="{effort}"/>'
+        "</joint></robot>"
+    )
+
+
+def spline_with(urdf: str) -> dict[str, Any]:
+    """The issue's repro: one joint, waypoints [[0], [0.5]], clamped, 5 samples, limits from the URDF."""
+    return {
+        "robot": {"urdf": urdf, "tip_frame": "l1", "base_frame": "l0"},
+        "waypoints": [[0.0], [0.5]],
+        "boundary": "clamped",
+        "samples": 5,
+    }
+
+
+@pytest.mark.parametrize(
+    ("velocity", "effort"),
+    [("1e-300", "1"), ("1e-100", "1"), ("9.9e-7", "1"), ("5e-324", "1"), ("1", "1e-300")],
+)
+def test_tiny_urdf_rate_limits_are_invalid_urdf_naming_the_joint(
+    client: TestClient, velocity: str, effort: str
+) -> None:
+    urdf = one_joint_urdf(velocity, effort)
+    started = time.perf_counter()
+    response = client.post("/v1/trajectories/spline", json=spline_with(urdf))
+    problem = hostile(response, started=started)
+    assert problem["code"] == "invalid_urdf", problem
+    assert "'shoulder'" in problem["detail"] and "1e-06" in problem["detail"], problem
+    assert problem["errors"][0]["loc"] == ["body", "robot", "urdf"], problem
+
+
+def test_urdf_rate_limits_at_the_request_bound_or_absent_still_plan(client: TestClient) -> None:
+    for velocity in ("1e-5", "0", "2.5"):
+        response = client.post(
+            "/v1/trajectories/spline", json=spline_with(one_joint_urdf(velocity))
+        )
+        assert response.status_code == 200, (velocity, response.text)
+        points = response.json()["points"]
+        assert points[-1]["positions"] == [0.5] and points[0]["positions"] == [0.0]
+    # 1e-5 rad/s is honoured, not replaced by the default: 0.5 rad takes at least 0.5e5 s
+    slow = client.post("/v1/trajectories/spline", json=spline_with(one_joint_urdf("1e-5")))
+    assert slow.json()["diagnostics"]["duration"] >= 0.5 / 1e-5
+
+
+def test_unknown_routes_and_traversal_paths_are_problem_json_not_found(
+    client: TestClient,
+) -> None:
+    for url in ("/nope", "/v1/robots/..%2F..%2Fetc/fk", "/v1/robots/ur5/fk/extra", "/v1/"):
+        response = client.post(url, json={})
+        body = hostile(response, (404,))
+        assert body["code"] == "not_found", (url, body)
+        assert body["detail"] == "no endpoint serves this path", body
+    # a registered route with an unknown robot keeps its own, more precise code
+    body = hostile(client.post("/v1/robots/etc/fk", json={"positions": [0.0]}), (404,))
+    assert body["code"] == "unknown_robot"
+
+
+def test_an_arithmetic_overflow_is_422_not_500() -> None:
+    app = create_app(Settings(access_log=False))
+
+    @app.get("/overflow")
+    def overflow() -> None:
+        raise OverflowError("math range error")
+
+    with TestClient(app) as c:
+        body = hostile(c.get("/overflow"))
+        assert body["code"] == "infeasible" and "overflow" in body["detail"]

@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from core.polynomials import LinearProfile, PolynomialProfile, TrapezoidalProfile
+from core.joint.profiles.linear import LinearProfile
+from core.joint.profiles.polynomial import PolynomialProfile
+from core.joint.profiles.trapezoidal import TrapezoidalProfile
 from service.app import create_app
 from tests.ros_rules import check_ros_trajectory
 from tests.service.helpers import needs_registry, problem, sweep
@@ -44,11 +46,11 @@ def exact_peaks(request: dict[str, Any], duration: float) -> tuple[np.ndarray, n
     q1 = np.array(request["goal"]["positions"])
     kind = request["profile"]
     if kind == "linear":
-        return LinearProfile(q0, q1, duration).peaks()
+        return LinearProfile(q0, q1, duration).peaks()[:2]
     if kind == "trapezoidal":
         acc = request.get("limits", {}).get("acceleration")
         amax = np.full(q0.size, np.inf) if acc is None else np.array(acc)
-        return TrapezoidalProfile(q0, q1, duration, amax).peaks()
+        return TrapezoidalProfile(q0, q1, duration, amax).peaks()[:2]
 
     def bc(end: str, key: str) -> np.ndarray:
         return np.array(request[end].get(key) or [0.0] * q0.size)
@@ -61,7 +63,7 @@ def exact_peaks(request: dict[str, Any], duration: float) -> tuple[np.ndarray, n
         bc("start", "velocities"),
         bc("goal", "velocities"),
         *(accs if kind == "quintic" else (None, None)),
-    ).peaks()
+    ).peaks()[:2]
 
 
 def recheck(request: dict[str, Any], body: dict[str, Any], time_format: str = "float") -> None:

@@ -26,7 +26,12 @@ from prometheus_client.parser import text_string_to_metric_families
 from core import errors as ex
 from service.__main__ import multiprocess_metrics_dir
 from service.app import create_app
-from service.logging_setup import JsonFormatter, TextFormatter, log_config, request_id_from
+from service.middleware.logging_setup import (
+    JsonFormatter,
+    TextFormatter,
+    log_config,
+    request_id_from,
+)
 from service.settings import Settings, SettingsError, env_names
 
 REPO = Path(__file__).resolve().parents[2]
@@ -280,7 +285,7 @@ def test_text_format_for_a_terminal() -> None:
 
 def test_log_config_is_a_valid_dict_config() -> None:
     config = log_config("debug", "json")
-    assert config["formatters"]["default"]["()"] == "service.logging_setup.JsonFormatter"
+    assert config["formatters"]["default"]["()"] == "service.middleware.logging_setup.JsonFormatter"
     assert config["root"]["level"] == "DEBUG"
     assert log_config("info", "text")["formatters"]["default"]["()"].endswith("TextFormatter")
 

@@ -1,4 +1,4 @@
-"""The playground page: served at /, Plotly from the Python plotly package, nothing from elsewhere.
+"""The playground page: served at /, Plotly vendored in service/static/vendor/, nothing from elsewhere.
 
 The page itself is exercised in a real browser by ``tests/browser/test_playground_browser.py``;
 these checks need no browser: what the routes serve, that the page names no other host (it must
@@ -51,14 +51,27 @@ def test_index_is_the_page_with_a_same_origin_policy(client: TestClient) -> None
     assert "connect-src 'self'" in csp
 
 
-def test_plotly_is_the_python_packages_own_file(client: TestClient) -> None:
-    path = playground.plotly_js()
-    assert path.parts[-3:] == ("plotly", "package_data", "plotly.min.js")
+def test_plotly_is_the_vendored_file_with_its_license_header(client: TestClient) -> None:
+    path = STATIC / "vendor" / "plotly.min.js"
+    assert playground.PLOTLY_JS == path
     r = client.get("/static/plotly.min.js")
     assert r.status_code == 200
     assert r.headers["content-type"].startswith("text/javascript")
     assert r.content == path.read_bytes()
-    assert b"plotly.js v" in r.content[:200]
+    header = r.content[:200].decode()
+    assert re.search(r"plotly\.js v\d+\.\d+\.\d+", header)
+    assert "Licensed under the MIT license" in header and "Plotly, Inc." in header
+    version = re.search(r"plotly\.js (v\d+\.\d+\.\d+)", header)
+    assert version and version.group(1) in (STATIC / "vendor" / "README.md").read_text()
+
+
+def test_the_package_data_ships_the_vendored_file() -> None:
+    """A package-data glob of pyproject matches the file (setuptools globs like pathlib), so
+    ``pip install .``, as in the image, installs it."""
+    tomllib = pytest.importorskip("tomllib")
+    pyproject = tomllib.loads((STATIC.parents[1] / "pyproject.toml").read_text())
+    globs = pyproject["tool"]["setuptools"]["package-data"]["service"]
+    assert any(STATIC / "vendor" / "plotly.min.js" in STATIC.parent.glob(g) for g in globs), globs
 
 
 @pytest.mark.parametrize(

@@ -4,10 +4,14 @@ on 0.0.0.0. Files are parsed, not grepped loosely."""
 
 from __future__ import annotations
 
+import ast
+import importlib.metadata
 import json
 import re
 import shlex
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -79,3 +83,53 @@ def test_dockerfile_installs_the_project_and_starts_the_service() -> None:
     assert argv[:5] == ["python", "-m", "service", "--host", "0.0.0.0"], argv
     port = argv[argv.index("--port") + 1]
     assert ("EXPOSE", port) in instructions
+
+
+def _imported_top_level_modules() -> set[str]:
+    """Top-level modules that core/, robots/ and service/ import (parsed with ast)."""
+    modules: set[str] = set()
+    for package in ("core", "robots", "service"):
+        for path in (ROOT / package).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, ast.Import):
+                    modules.update(alias.name.split(".")[0] for alias in node.names)
+                elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                    modules.add(node.module.split(".")[0])
+    return modules
+
+
+def test_every_runtime_dependency_is_imported_by_the_service() -> None:
+    """The image installs the runtime dependencies: each must be a module the service imports
+    (the playground's plotly.min.js is vendored, so the plotly package is not one)."""
+    tomllib = pytest.importorskip("tomllib")
+    dependencies = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
+    names = {
+        re.split(r"[<>=!~;\[ ]", d, maxsplit=1)[0].lower().replace("_", "-") for d in dependencies
+    }
+
+    def top_level(name: str) -> set[str]:
+        """Top-level modules a distribution installs, from its file list (cmeel wheels such as
+        libpinocchio install under cmeel.prefix/.../site-packages/)."""
+        modules = set()
+        for file in importlib.metadata.files(name) or []:
+            parts = file.parts
+            top = parts[parts.index("site-packages") + 1 :] if "site-packages" in parts else parts
+            if top[0].endswith((".dist-info", ".data")) or top[0].startswith(".."):
+                continue
+            if len(top) > 1 or top[0].endswith((".py", ".so")):
+                modules.add(top[0].split(".")[0])
+        return modules
+
+    def modules_of(name: str) -> set[str]:
+        """A distribution's modules; a meta-distribution's (``pin``) are its requirements'."""
+        modules = top_level(name)
+        if not modules:
+            for requirement in importlib.metadata.requires(name) or []:
+                if "extra ==" not in requirement:
+                    modules |= top_level(re.split(r"[<>=!~;\[ ]", requirement, maxsplit=1)[0])
+        return modules
+
+    imported = _imported_top_level_modules()
+    unused = {name for name in names if not modules_of(name) & imported}
+    assert not unused, f"runtime dependencies no module of the service imports: {unused}"
+    assert "plotly" not in names

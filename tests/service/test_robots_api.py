@@ -203,9 +203,218 @@ def test_openapi_documents_units(client: TestClient) -> None:
         "/v1/robots/{name}",
         "/v1/robots/{name}/fk",
         "/v1/robots/{name}/ik",
+        "/v1/robots/describe",
+        "/v1/fk",
+        "/v1/ik",
     } <= set(spec["paths"])
     pose = spec["components"]["schemas"]["Pose"]["properties"]
     assert (
         "[m]" in pose["position"]["description"]
         and "x, y, z, w" in pose["orientation"]["description"]
     )
+
+
+# --- every IK solution, configurations, inline robots (round 2) -----------------------------------
+
+UR5_Q = [0.3, -1.2, 1.8, -2.2, -1.3, 0.4]
+
+
+def wrap(d: np.ndarray) -> np.ndarray:
+    return (d + math.pi) % (2 * math.pi) - math.pi
+
+
+def pose_of(robot_name: str, q) -> dict:
+    from service.schemas.common import Pose
+
+    return Pose.from_matrix(registry.get(robot_name).fk(np.asarray(q, dtype=float))).model_dump()
+
+
+def test_detail_lists_ik_solver_and_configurations(client: TestClient) -> None:
+    ur5 = client.get("/v1/robots/ur5").json()
+    assert ur5["ik"] == {"solver": "analytic", "max_solutions": 8, "redundant_joints": []}
+    assert len(ur5["configurations"]) == 8 and "right-up-noflip" in ur5["configurations"]
+    panda = client.get("/v1/robots/panda").json()
+    assert panda["ik"]["redundant_joints"] == ["panda_joint7"] and panda["configurations"] == []
+    planar = client.get("/v1/robots/planar_2r").json()
+    assert planar["ik"]["max_solutions"] == 2 and planar["configurations"] == ["down", "up"]
+    described = client.post("/v1/robots/describe", json={"robot": "ur5"}).json()
+    assert described == ur5
+
+
+def test_fk_configuration_and_every_link_frame(client: TestClient) -> None:
+    ur5 = registry.get("ur5")
+    body = client.post("/v1/robots/ur5/fk", json={"positions": UR5_Q, "frames": True}).json()
+    assert body["configuration"] == ur5.configuration(np.array(UR5_Q))
+    names = [f["name"] for f in body["frames"]]
+    assert names[0] == "base_link" and names[-1] == "tool0" and "wrist_2_link" in names
+    for frame in body["frames"]:  # each equals the model's frame pose
+        T = ur5.frame_pose(np.array(UR5_Q), frame["name"])
+        np.testing.assert_allclose(frame["position"], T[:3, 3], atol=1e-12)
+        np.testing.assert_allclose(quat_to_matrix(frame["orientation"]), T[:3, :3], atol=1e-12)
+    plain = client.post("/v1/robots/ur5/fk", json={"positions": UR5_Q}).json()
+    assert plain["frames"] is None
+
+
+@pytest.mark.parametrize("name", ["ur5", "puma560"])
+def test_ik_all_every_solution_reproduces_the_pose(client: TestClient, name: str) -> None:
+    robot = registry.get(name)
+    q = robot.home + np.array([0.2, -0.15, 0.25, 0.3, 0.35, -0.2])
+    T = robot.fk(q)
+    body = client.post(
+        f"/v1/robots/{name}/ik", json={"pose": pose_of(name, q), "all": True, "seed": q.tolist()}
+    ).json()
+    assert body["solver"] == "analytic"
+    sols = body["solutions"]
+    Q = np.array([s["positions"] for s in sols])
+    assert np.abs(Q[0] - q).max() <= 1e-7  # nearest the seed first
+    dist = np.linalg.norm(Q - q, axis=1)
+    assert np.all(np.diff(dist) >= 0)
+    for s, x in zip(sols, Q, strict=True):
+        Tx = robot.fk(x)
+        # the pose went through a quaternion: compare to its rounding, not to 1e-9 of T itself
+        assert np.linalg.norm(Tx[:3, 3] - T[:3, 3]) <= 1e-9
+        assert np.abs(Tx[:3, :3] - T[:3, :3]).max() <= 1e-9
+        assert s["configuration"] == robot.configuration(x)
+        fk = client.post(f"/v1/robots/{name}/fk", json={"positions": s["positions"]}).json()
+        assert fk["configuration"] == s["configuration"]
+        assert s["position_error"] <= 1e-9 and s["orientation_error"] <= 1e-9
+    labels = [s["configuration"] for s in sols]
+    assert len(set(labels)) == len(labels)
+    if name == "ur5":
+        assert len(sols) == 8
+
+
+def test_ik_with_a_configuration_and_unknown_or_absent_labels(client: TestClient) -> None:
+    ur5 = registry.get("ur5")
+    pose = pose_of("ur5", UR5_Q)
+    every = client.post("/v1/robots/ur5/ik", json={"pose": pose, "all": True}).json()["solutions"]
+    target = every[-1]  # the farthest from home
+    one = client.post(
+        "/v1/robots/ur5/ik", json={"pose": pose, "configuration": target["configuration"]}
+    ).json()
+    assert one["configuration"] == target["configuration"]
+    assert ur5.configuration(np.array(one["positions"])) == target["configuration"]
+    np.testing.assert_allclose(one["positions"], target["positions"], atol=1e-9)
+    bad = problem(
+        client.post("/v1/robots/ur5/ik", json={"pose": pose, "configuration": "sideways"}),
+        422,
+        "validation",
+    )
+    assert bad["errors"][0]["loc"] == ["body", "configuration"]
+    assert set(bad["configurations"]) == set(ur5.configuration_labels)
+    # a PUMA pose whose limits leave fewer than 8 labels: a missing one is unreachable, named
+    puma = registry.get("puma560")
+    q = np.array([0.2, 0.9, -2.6, 0.3, 0.8, 0.1])
+    pose = pose_of("puma560", q)
+    found = client.post("/v1/robots/puma560/ik", json={"pose": pose, "all": True}).json()
+    labels = {s["configuration"] for s in found["solutions"]}
+    missing = sorted(set(puma.configuration_labels) - labels)
+    assert missing
+    body = problem(
+        client.post("/v1/robots/puma560/ik", json={"pose": pose, "configuration": missing[0]}),
+        422,
+        "unreachable",
+    )
+    assert set(body["configurations"]) == labels
+
+
+def test_ik_turns(client: TestClient) -> None:
+    pose = pose_of("ur5", UR5_Q)
+    one = client.post("/v1/robots/ur5/ik", json={"pose": pose, "all": True}).json()
+    every = client.post("/v1/robots/ur5/ik", json={"pose": pose, "all": True, "turns": True}).json()
+    assert len(every["solutions"]) == 64 * len(one["solutions"])
+    Q = np.array([s["positions"] for s in every["solutions"]])
+    assert np.all(np.abs(Q) <= 2 * math.pi)
+
+
+def test_fixed_joints(client: TestClient) -> None:
+    panda = registry.get("panda")
+    q = np.array([0.2, -0.5, 0.3, -2.0, 0.4, 1.7, 0.6])
+    pose = pose_of("panda", q)
+    body = client.post(
+        "/v1/robots/panda/ik",
+        json={"pose": pose, "all": True, "fixed_joints": {"panda_joint7": 0.6}},
+    ).json()
+    Q = np.array([s["positions"] for s in body["solutions"]])
+    assert np.all(Q[:, 6] == 0.6) and body["solver"] == "analytic"
+    assert np.abs(wrap(Q - q)).max(axis=1).min() <= 1e-7
+    for x in Q:
+        assert np.linalg.norm(panda.fk(x)[:3, 3] - panda.fk(q)[:3, 3]) <= 1e-9
+    cases = [
+        ({"nope": 0.1}, 422, "validation", ["body", "fixed_joints", "nope"]),
+        ({"panda_joint2": 0.1}, 422, "validation", ["body", "fixed_joints", "panda_joint2"]),
+        ({"panda_joint7": 3.5}, 422, "joint_limit", ["body", "fixed_joints", "panda_joint7"]),
+        ({"x" * 300: 0.1}, 422, "validation", None),
+        ({"panda_joint7": 1e9}, 422, "validation", None),
+    ]
+    for fixed, status, code, loc in cases:
+        err = problem(
+            client.post("/v1/robots/panda/ik", json={"pose": pose, "fixed_joints": fixed}),
+            status,
+            code,
+        )
+        assert loc is None or err["errors"][0]["loc"] == loc
+    err = problem(
+        client.post("/v1/robots/ur5/ik", json={"pose": pose, "fixed_joints": {"wrist_3_joint": 0}}),
+        422,
+        "validation",
+    )
+    assert err["redundant_joints"] == []
+
+
+def test_unreachable_names_the_reach(client: TestClient) -> None:
+    pose = {"position": [2.5, 0, 0.3], "orientation": [0, 0, 0, 1]}
+    body = problem(
+        client.post("/v1/robots/ur5/ik", json={"pose": pose, "all": True}), 422, "unreachable"
+    )
+    assert 0.9 < body["reach"] < 1.3 and body["distance"] > body["reach"]
+    assert "reaches at most" in body["detail"]
+
+
+def test_inline_robot_routes(client: TestClient) -> None:
+    from tests.robots.test_ik_all import ur_urdf
+
+    inline = {
+        "urdf": ur_urdf(0.1273, -0.612, -0.5723, 0.163941, 0.1157, 0.0922),
+        "tip_frame": "tool",
+        "base_frame": "world",
+    }
+    robot_model = registry.load_inline(inline["urdf"], "tool", "world")
+    described = client.post("/v1/robots/describe", json={"robot": inline}).json()
+    assert described["ik"]["solver"] == "analytic" and len(described["configurations"]) == 8
+    q = [0.4, -1.1, 1.5, -1.9, -1.2, 0.7]
+    fk = client.post("/v1/fk", json={"robot": inline, "positions": q}).json()
+    assert fk["configuration"] == robot_model.configuration(np.array(q))
+    ik = client.post("/v1/ik", json={"robot": inline, "pose": fk["pose"], "all": True}).json()
+    assert ik["solver"] == "analytic" and len(ik["solutions"]) >= 1
+    assert any(np.abs(wrap(np.array(s["positions"]) - q)).max() <= 1e-7 for s in ik["solutions"])
+    # a registered name works through the same routes
+    assert client.post("/v1/fk", json={"robot": "ur5", "positions": UR5_Q}).json()["configuration"]
+    problem(client.post("/v1/fk", json={"robot": inline, "positions": q[:5]}), 422, "validation")
+    problem(client.post("/v1/ik", json={"robot": "r2d2", "pose": fk["pose"]}), 404, "unknown_robot")
+
+
+def test_shared_link_and_joint_name_through_the_api(client: TestClient) -> None:
+    from tests.robots.test_shared_names import Q6, SHARED
+
+    inline = {"urdf": SHARED, "tip_frame": "palm", "base_frame": "base"}
+    fk = client.post("/v1/fk", json={"robot": inline, "positions": Q6.tolist(), "frames": True})
+    assert fk.status_code == 200, fk.text
+    names = [f["name"] for f in fk.json()["frames"]]
+    assert names.count("gripper") == 1 and names.count("wrist") == 1
+    ik = client.post(
+        "/v1/ik", json={"robot": inline, "pose": fk.json()["pose"], "seed": Q6.tolist()}
+    )
+    assert ik.status_code == 200, ik.text
+    np.testing.assert_allclose(ik.json()["positions"], Q6, atol=1e-7)
+
+
+def test_singular_pose_answers_representatives_with_a_warning(client: TestClient) -> None:
+    q = [0.3, -1.2, 1.8, -2.2, 0.0, 0.4]  # UR5 wrist singular: q5 = 0
+    pose = pose_of("ur5", q)
+    body = client.post("/v1/robots/ur5/ik", json={"pose": pose, "all": True}).json()
+    assert body["solutions"] and "singular" in body["warnings"][0]
+    one = client.post("/v1/robots/ur5/ik", json={"pose": pose, "seed": q}).json()
+    assert one["warnings"] and one["position_error"] <= 1e-9
+    generic = client.post("/v1/robots/ur5/ik", json={"pose": pose_of("ur5", UR5_Q)}).json()
+    assert generic["warnings"] == []

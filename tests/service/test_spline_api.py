@@ -3,7 +3,6 @@ times, ROS rules, allocated times within limits, errors, a seeded random sweep, 
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Iterator
 from typing import Any
 
@@ -172,7 +171,7 @@ def test_infeasible_and_too_large(client: TestClient) -> None:
 
 
 def test_time_budget_exceeded() -> None:
-    settings = dataclasses.replace(Settings(), time_budget_s=1e-9)
+    settings = Settings(time_budget_s=1e-9)
     with TestClient(create_app(settings)) as tiny:
         problem(tiny.post(URL, json=spline()), 422, "time_budget_exceeded")
 
@@ -266,3 +265,22 @@ def test_a_registered_robot(client: TestClient) -> None:
     body = problem(client.post(URL, json=request), 422, "joint_limit")
     assert body["errors"][0]["loc"][:3] == ["body", "waypoints", 1]
     problem(client.post(URL, json={**request, "robot": "r2d2"}), 404, "unknown_robot")
+
+
+def test_a_urdf_speed_limit_of_1e_300_is_a_422_not_a_500(client: TestClient) -> None:
+    """Issue 19 item 1: an inline URDF whose velocity limit is 1e-300 rad/s."""
+    urdf = (
+        '<robot name="tiny"><link name="base"/><link name="tip"/>'
+        '<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>'
+        '<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1e-300"/></joint>'
+        "</robot>"
+    )
+    body = {
+        "robot": {"urdf": urdf, "tip_frame": "tip", "base_frame": "base"},
+        "waypoints": [[0.0], [0.5]],
+        "boundary": "clamped",
+        "samples": 5,
+    }
+    response = client.post("/v1/trajectories/spline", json=body)
+    assert response.status_code == 422, response.text
+    assert response.json()["code"] in ("invalid_urdf", "infeasible")

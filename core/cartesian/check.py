@@ -1,0 +1,114 @@
+"""The checks every returned trajectory gets: joint limits, then the dense measurement (``finish``)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from core.cartesian.joint_limits import outside, over_speed
+from core.cartesian.measure import DeviationReport, measure_chunked, min_singular_values
+from core.cartesian.task import CartesianResult, CartesianTask
+from core.errors import (
+    Infeasible,
+    JointLimit,
+    JointRateLimit,
+)
+from core.kinematics import Kinematics
+from core.trajectory import Trajectory
+
+
+def check_limits(robot: Kinematics, traj: Trajectory, s: np.ndarray | None = None) -> None:
+    """Raise JointLimit / JointRateLimit when ``traj`` leaves the robot's position or speed limits.
+
+    ``s`` (N,) gives the path parameter of each point, for the error's location.
+    """
+    over = outside(traj.positions, robot.position_limits)
+    if over.any():
+        i, j = np.argwhere(over)[0]
+        raise JointLimit(
+            f"joint {robot.joint_names[j]} leaves its position limits at point {i}",
+            joint=int(j),
+            sample=int(i),
+            s=None if s is None else float(s[i]),
+        )
+    fast = over_speed(traj.velocities, robot.velocity_limits)
+    if fast.any():
+        i, j = np.argwhere(fast)[0]
+        raise JointRateLimit(
+            f"joint {robot.joint_names[j]} exceeds its velocity limit at point {i}",
+            joint=int(j),
+            sample=int(i),
+            s=None if s is None else float(s[i]),
+        )
+
+
+def finish(
+    task: CartesianTask, result: CartesianResult, s: np.ndarray | None = None
+) -> CartesianResult:
+    """``result`` checked (joint limits) and measured (dense deviation, smallest singular value at
+    every returned point): a new frozen result with ``deviation``, ``singular_values`` and
+    ``min_singular_value`` set."""
+    check_limits(task.robot, result.trajectory, s)
+    deviation = measure(task, result.trajectory)
+    sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
+    return replace(
+        result, deviation=deviation, singular_values=sv, min_singular_value=float(sv.min())
+    )
+
+
+def measure(task: CartesianTask, traj: Trajectory) -> DeviationReport:
+    """The dense measurement of ``traj`` against the task's line, under the task's deadline
+    (``core.cartesian.measure.measure_chunked``)."""
+    return measure_chunked(
+        task.robot,
+        task.line(),
+        traj,
+        task.position_tolerance,
+        task.orientation_tolerance,
+        task.deadline,
+    )
+
+
+VIOLATION_SLACK = 1e-6
+"""Relative slack of the 200 rule on the tolerances and acceleration limits (rounding of the
+dense measurement and of finite-difference accelerations)."""
+
+
+def enforce(task: CartesianTask, result: CartesianResult) -> CartesianResult:
+    """The rule of every method (issue 19): a 200 is within its tolerance between the returned
+    points and within the robot's acceleration limits; otherwise ``Infeasible`` (the deviation) or
+    ``JointRateLimit`` (an acceleration), each naming what to change, unless the task says
+    ``allow_violations`` (then ``result`` as it is, its warnings saying where)."""
+    dev = result.deviation
+    if task.allow_violations or dev is None:
+        return result
+    over_p = dev.max_position > task.position_tolerance * (1.0 + VIOLATION_SLACK)
+    over_o = dev.max_orientation > task.orientation_tolerance * (1.0 + VIOLATION_SLACK)
+    if over_p or over_o:
+        worst = np.argmax(
+            np.maximum(
+                dev.position / task.position_tolerance, dev.orientation / task.orientation_tolerance
+            )
+        )
+        raise Infeasible(
+            f"between its returned points the trajectory strays up to {dev.max_position:.3g} m / "
+            f"{dev.max_orientation:.3g} rad from the line (tolerance {task.position_tolerance:g} m "
+            f"/ {task.orientation_tolerance:g} rad): give more samples or a smaller sample_period, "
+            "or set allow_violations to accept it",
+            s=float(dev.s[worst]),
+            extra={
+                "max_position_deviation": dev.max_position,
+                "max_orientation_deviation": dev.max_orientation,
+            },
+        )
+    ratio = result.trajectory.peak_acceleration / np.asarray(task.robot.acceleration_limits)
+    j = int(np.argmax(ratio))
+    if ratio[j] > 1.0 + VIOLATION_SLACK:
+        raise JointRateLimit(
+            f"joint {task.robot.joint_names[j]} accelerates at {ratio[j]:.3g} times its limit: "
+            "give a longer duration or lower tool speeds, or set allow_violations to accept it",
+            joint=j,
+            extra={"limit": "acceleration", "ratio": float(ratio[j])},
+        )
+    return result

@@ -1,0 +1,13 @@
+"""``resolved_rate_dls``: damped least squares as a QP (``core.cartesian.rate.qp``: build once,
+update and warm-start each tick), simulated tick by tick (``core.cartesian.rate.control``)."""
+
+from __future__ import annotations
+
+from core.cartesian.rate.control import simulate
+from core.cartesian.rate.output import result_of
+from core.cartesian.task import CartesianResult, CartesianTask
+
+
+def plan_resolved_rate_dls(task: CartesianTask) -> CartesianResult:
+    """Plan ``task`` by damped-least-squares resolved-rate control (a finished result)."""
+    return result_of(task, simulate(task, "resolved_rate_dls"), "resolved_rate_dls")

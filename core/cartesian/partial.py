@@ -1,0 +1,75 @@
+"""Partial plans (``allow_partial``): a located failure becomes the plan of the reachable prefix.
+
+One set of rules for every method: which failures a prefix can stop before (``PARTIAL_ERRORS``: a
+failure located at ``s``), how many times a prefix is retried (``PARTIAL_TRIES``), and what the
+result says (``partial_warning`` first among the warnings, ``fraction`` < 1, ``failure`` set). How
+the prefix is found is the method's: the knot methods re-plan the line cut short
+(``plan_partial``), ``sampled`` cuts its walk, the rate controllers keep the ticks before the failure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+from core.cartesian.task import CartesianResult, CartesianTask
+from core.errors import (
+    BranchFlip,
+    JointLimit,
+    PlanningError,
+    Singularity,
+    Unreachable,
+)
+
+PARTIAL_ERRORS = (Unreachable, JointLimit, BranchFlip, Singularity)
+"""Failures at a path parameter ``s`` that a partial plan stops before."""
+MIN_FRACTION = 1e-3
+"""Shortest prefix [share of s] a re-planned partial plan may return."""
+PARTIAL_TRIES = 3
+"""Prefixes tried before the first failure is raised after all."""
+
+
+def partial_warning(fraction: float, failure: PlanningError) -> str:
+    """The first warning of a partial plan: how much of the line it covers and why it stops."""
+    return f"planned {fraction:.1%} of the line: {failure.detail}"
+
+
+def plan_partial(
+    task: CartesianTask, plan: Callable[[CartesianTask], CartesianResult]
+) -> CartesianResult:
+    """``plan(task)``; with ``task.allow_partial``, a failure at ``s`` (unreachable, joint limit,
+    branch flip, singularity) gives ``plan`` of the prefix of the line up to where it was last
+    reached (``extra["s_reached"]``, else just before ``s``): ``fraction`` < 1, ``failure`` set, the
+    knots' ``s`` on the whole line."""
+    try:
+        return plan(task)
+    except PARTIAL_ERRORS as err:
+        if not task.allow_partial or err.s is None or err.field is not None:
+            raise
+        failure = err
+    line = task.line()
+    fail_at, reached = float(failure.s), failure.extra.get("s_reached")
+    for _ in range(PARTIAL_TRIES):
+        end = float(reached) if reached is not None else 0.95 * fail_at
+        if end < MIN_FRACTION:
+            raise failure
+        prefix = replace(task, T_goal=line.pose(end), q_goal=None, allow_partial=False)
+        try:
+            result = plan(prefix)
+            break
+        except PARTIAL_ERRORS as err:
+            if err.s is None:
+                raise
+            # The prefix's own s runs over [0, 1]: on the whole line it is end * s.
+            fail_at = end * float(err.s)
+            reached = end * float(err.extra["s_reached"]) if "s_reached" in err.extra else None
+    else:
+        raise failure
+    knots = None if result.knots is None else {**result.knots, "s": result.knots["s"] * end}
+    return replace(
+        result,
+        fraction=end,
+        failure=failure,
+        warnings=(partial_warning(end, failure), *result.warnings),
+        knots=knots,
+    )

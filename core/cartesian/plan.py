@@ -1,0 +1,28 @@
+"""Plan a Cartesian task: validate -> ``METHODS[method]`` -> check -> finish -> enforce.
+
+``plan`` is the one entry point the service calls. Every method validates its own entry (it may be
+called directly), returns a ``CartesianResult`` and, when it did not ``finish`` it (limits, dense
+deviation, singular values), ``plan`` finishes it here, so no trajectory leaves core unchecked.
+"""
+
+from __future__ import annotations
+
+from core.cartesian.check import enforce, finish
+from core.cartesian.methods import METHODS
+from core.cartesian.task import CartesianResult, CartesianTask
+from core.errors import InputError
+
+
+def plan(task: CartesianTask, method: str) -> CartesianResult:
+    """Plan ``task`` with ``method`` (a name in ``METHODS``); ``InputError`` for any other name."""
+    planner = METHODS.get(method)
+    if planner is None:
+        raise InputError(
+            f"method must be one of {', '.join(METHODS)}",
+            field=("method",),
+            extra={"methods": list(METHODS)},
+        )
+    result = planner(task)
+    if result.deviation is None:
+        result = finish(task, result)
+    return enforce(task, result)

@@ -1,0 +1,1 @@
+"""Resolved-rate control: the simulation (control.py), its QP (qp.py), the result (output.py)."""

@@ -1,0 +1,219 @@
+"""From simulated control ticks to a response: the sampled trajectory, its checks and diagnostics.
+
+``result_of`` turns a ``core.cartesian.rate.control.RateRun`` into a finished ``CartesianResult``:
+
+- Sampling: ``sample_period`` or ``samples`` over the run; positions interpolated linearly between
+  ticks (exactly the explicit-Euler path), velocities the rates commanded over the tick, zero at the
+  first and last point (rest to rest), accelerations by finite differences of the sampled velocities.
+- Partial plans (``allow_partial``): the prefix ends where the failure happened (``resolved_rate``)
+  or, for the DLS, at the furthest point along the line before the tool first left the tolerance
+  band. The prefix is braked to rest along the same joint path: original timing up to ``u_b``, then
+  a uniform deceleration of the path clock whose rate ``a`` keeps ``|qd_i| a <= a_max_i`` for the
+  prefix's peak rates (the path's own curvature is not counted). ``fraction`` is the line parameter
+  of the closest point to the tool's final pose.
+- Checks and measurements: ``core.cartesian.check.finish`` (limits, dense deviation, singular values),
+  then the controller's own figures in ``diagnostics`` and what a client should know in ``warnings``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from core.cartesian.check import finish
+from core.cartesian.partial import partial_warning
+from core.cartesian.rate.control import GOAL_FRACTION, RateRun
+from core.cartesian.rate.qp import SINGULAR_REGION
+from core.cartesian.task import CartesianResult, CartesianTask
+from core.trajectory import Trajectory, sample_times
+
+GOAL_CONFIGURATION_WARNING = 1e-3
+"""[rad] End configuration farther than this from ``q_goal``: a warning."""
+_CHUNK = 20_000
+
+
+def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult:
+    """The finished result of ``run``; raises ``run.failure`` unless ``task.allow_partial``."""
+    if run.failure is not None and not task.allow_partial:
+        raise run.failure
+    line = task.line()
+    last = len(run.s) - 1
+    if run.failure is None:
+        m, fraction = last, 1.0
+    else:
+        closest, first_out = _along_line(task, line, run.positions)
+        m = last
+        if method == "resolved_rate_dls":  # up to where the tool first left the tolerance band
+            m = int(np.argmax(closest[: max(first_out, 1)]))
+        fraction = min(float(closest[m]), float(np.nextafter(1.0, 0.0)))
+    trajectory, s_points = _sample(task, run, m, brake=run.failure is not None)
+    result = CartesianResult(trajectory=trajectory, fraction=fraction, failure=run.failure)
+    result = finish(task, result, s_points)
+    result = replace(result, diagnostics=_diagnostics(task, run, method, result))
+    return replace(result, warnings=tuple(_warnings(task, run, result)))
+
+
+def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.ndarray, int]:
+    """Line parameter of the closest point to the tool at each tick ``(n,)``, and the first tick
+    at which the tool is farther from the line than the tolerances (``n`` if never)."""
+    s, first_out = [], len(positions)
+    for i in range(0, len(positions), _CHUNK):
+        dev = line.deviation(
+            task.robot.fk_many(positions[i : i + _CHUNK]),
+            task.position_tolerance,
+            task.orientation_tolerance,
+        )
+        s.append(dev.s)
+        out = np.flatnonzero(
+            (dev.position > task.position_tolerance)
+            | (dev.orientation > task.orientation_tolerance)
+        )
+        if out.size and first_out == len(positions):
+            first_out = i + int(out[0])
+    return np.concatenate(s), first_out
+
+
+def _sample(
+    task: CartesianTask, run: RateRun, m: int, brake: bool
+) -> tuple[Trajectory, np.ndarray]:
+    """Trajectory over ticks ``0..m`` (braked to rest when ``brake``) and the setpoint s per point."""
+    names, dt = tuple(task.robot.joint_names), run.dt
+    if m == 0:  # nothing was executed: the arm stays where it is
+        times = np.array([0.0, dt])
+        zeros = np.zeros((2, run.positions.shape[1]))
+        return Trajectory(times, run.positions[[0, 0]], zeros, zeros, names), np.zeros(2)
+    u_end = m * dt
+    u_b, a = u_end, 0.0
+    peak = np.abs(run.rates[:m]).max(axis=0)
+    if brake and np.any(peak > 0):
+        moving = peak > 0
+        a = float(np.min(np.asarray(task.robot.acceleration_limits)[moving] / peak[moving]))
+        u_b = u_end - 0.5 / a
+        if u_b < 0.0:
+            u_b, a = 0.0, 0.5 / u_end
+    duration = u_end if a == 0.0 else u_b + 1.0 / a
+    times = sample_times(duration, task.sample_period, task.samples)
+    after = np.maximum(times - u_b, 0.0)
+    u = np.minimum(np.minimum(times, u_b) + after - 0.5 * a * after**2, u_end)
+    du = np.clip(1.0 - a * after, 0.0, 1.0)
+    idx = np.clip(np.floor(u / dt + 1e-9).astype(int), 0, m - 1)
+    frac = np.clip(u / dt - idx, 0.0, 1.0)[:, None]
+    P = run.positions
+    positions = P[idx] + frac * (P[idx + 1] - P[idx])
+    velocities = run.rates[idx] * du[:, None]
+    velocities[0] = velocities[-1] = 0.0
+    accelerations = np.gradient(velocities, times, axis=0)
+    s_points = np.interp(u, np.arange(len(run.s)) * dt, run.s)
+    return Trajectory(times, positions, velocities, accelerations, names), s_points
+
+
+def _diagnostics(
+    task: CartesianTask, run: RateRun, method: str, result: CartesianResult
+) -> dict[str, Any]:
+    """The controller's figures (JSON-serializable)."""
+    steps = len(run.sigma)
+    nominal = run.nominal_ticks * run.dt
+    diag: dict[str, Any] = {
+        "control_period": run.dt,
+        "control_ticks": len(run.s),
+        "nominal_duration": nominal,
+        "settle_time": max(0.0, (len(run.s) - 1 - run.nominal_ticks) * run.dt),
+        "max_tracking_error_position": float(run.tracking_position.max()),
+        "max_tracking_error_orientation": float(run.tracking_orientation.max()),
+        "min_singular_value_met": float(run.sigma.min()) if steps else None,
+        "max_damping": float(run.damping.max()) if steps else 0.0,
+        "active_limit_steps": int(run.active.sum()),
+        "min_time_scale": float(run.time_scale.min()) if steps else 1.0,
+        "time_scaled_steps": int((run.time_scale < 1.0).sum()),
+        "goal_position_error": float(run.tracking_position[-1]),
+        "goal_orientation_error": float(run.tracking_orientation[-1]),
+    }
+    dev = result.deviation
+    if dev is not None:
+        worst = np.maximum(
+            dev.position / task.position_tolerance, dev.orientation / task.orientation_tolerance
+        )
+        diag["max_deviation_s"] = float(dev.s[int(np.argmax(worst))])
+    if method == "resolved_rate_dls" and steps:
+        diag.update(
+            solver=task.solver,
+            qp_iterations_median=float(np.median(run.iterations)),
+            qp_iterations_max=int(run.iterations.max()),
+            qp_solve_time_us_median=float(np.median(run.solve_time) * 1e6),
+            qp_solve_time_us_max=float(run.solve_time.max() * 1e6),
+            qp_fallback_steps=run.fallbacks,
+        )
+    return diag
+
+
+def _warnings(task: CartesianTask, run: RateRun, result: CartesianResult) -> list[str]:
+    """What a client should know: active limits, lag, damping, accepted deviation."""
+    out: list[str] = []
+    diag = result.diagnostics
+    if diag["active_limit_steps"]:
+        out.append(
+            f"joint rate bounds (velocity or position limits) were active in "
+            f"{diag['active_limit_steps']} of {len(run.sigma)} control ticks"
+        )
+    if diag["time_scaled_steps"]:
+        slowest = int(np.argmin(run.time_scale))
+        out.append(
+            f"joint velocity limits slowed the tool along the line, to "
+            f"{100.0 * diag['min_time_scale']:.3g} % of the nominal speed at worst (near "
+            f"s={run.s[slowest]:.3f})"
+        )
+    if diag["settle_time"] > 0.0 and run.failure is None:
+        out.append(
+            f"the goal was reached {diag['settle_time']:.3f} s after the nominal duration of "
+            f"{diag['nominal_duration']:.3f} s"
+        )
+    if run.failure is None and (
+        diag["goal_position_error"] > GOAL_FRACTION * task.position_tolerance
+        or diag["goal_orientation_error"] > GOAL_FRACTION * task.orientation_tolerance
+    ):
+        out.append(
+            f"the run ended {diag['goal_position_error']:.3g} m and "
+            f"{diag['goal_orientation_error']:.3g} rad from the goal (within the tolerance; the "
+            f"controller converges slowly here)"
+        )
+    sigma = diag["min_singular_value_met"]
+    if diag["max_damping"] > 0.0 and sigma is not None and sigma < SINGULAR_REGION:
+        out.append(
+            f"damped near a singularity (smallest singular value {sigma:.2e}, "
+            f"damping up to {diag['max_damping']:.3g})"
+        )
+    dev = result.deviation
+    if dev is not None and (
+        dev.max_position > task.position_tolerance
+        or dev.max_orientation > task.orientation_tolerance
+    ):
+        out.append(
+            f"accepted a deviation from the line of up to {dev.max_position:.3g} m and "
+            f"{dev.max_orientation:.3g} rad (tolerance {task.position_tolerance:g} m, "
+            f"{task.orientation_tolerance:g} rad), largest near s={diag['max_deviation_s']:.3f}"
+        )
+    if run.failure is not None:
+        out.insert(0, partial_warning(result.fraction, run.failure))
+    peak = result.trajectory.peak_acceleration
+    limit = np.asarray(task.robot.acceleration_limits)
+    if np.any(peak > limit):
+        j = int(np.argmax(peak / limit))
+        out.append(
+            f"joint {task.robot.joint_names[j]} accelerates at up to {peak[j]:.3g} (limit "
+            f"{limit[j]:.3g}): resolved-rate control bounds joint rates, not accelerations"
+        )
+    if task.q_goal is not None and run.failure is None:
+        apart = float(np.abs(result.trajectory.positions[-1] - task.q_goal).max())
+        if apart > GOAL_CONFIGURATION_WARNING:
+            out.append(
+                f"the run ended on another configuration than goal.positions (joints up to "
+                f"{apart:.3g} apart): the controller follows the pose, not the joint goal"
+            )
+    if run.fallbacks:
+        out.append(
+            f"OSQP stopped short of its tolerance in {run.fallbacks} control ticks; those were "
+            f"solved exactly by bounded least squares"
+        )
+    return out

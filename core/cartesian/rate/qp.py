@@ -1,0 +1,318 @@
+"""Damped least-squares joint rates as a QP: build it, solve it, and the per-tick OSQP path.
+
+One control tick of ``resolved_rate_dls`` asks for the joint rates ``qd`` (dof,) that best produce the
+task twist ``V`` (the rows of the Jacobian ``J`` that the task constrains) while staying inside the
+joint velocity limits and not leaving the position limits within the tick ``dt``::
+
+    minimize    ||J qd - V||^2 + lambda^2 ||qd||^2
+    subject to  max(-v_max, (q_min - q)/dt) <= qd <= min(v_max, (q_max - q)/dt)
+
+In the standard form ``1/2 x^T P x + c^T x`` of OSQP and qpsolvers, ``P = J^T J + lambda^2 I`` and
+``c = -J^T V`` (the objective halved; same minimizer). With ``lambda = 0`` and no active bound the
+minimizer is the pseudo-inverse step ``J^+ V`` (for ``J`` of full column rank).
+
+``build_dls_qp`` returns a ``qpsolvers.Problem`` to inspect or hand to any installed solver with
+``solve_dls_qp``. ``DlsQpSolver`` is the per-tick path: one OSQP workspace per request whose ``P``,
+``c`` and bounds are updated in place each tick and warm-started (qpsolvers sets up a new OSQP
+workspace on every call).
+
+OSQP settings, measured by ``bench/rate_tick.py`` on UR5 and Panda ticks with one joint 1 urad from
+its limit (``bench/RESULTS.md``):
+
+- At ``dt = 1 ms`` that joint's bound ``(q_max - q)/dt`` is 1e-3 rad/s, the size of OSQP's default
+  tolerance: with ``eps = 1e-3`` OSQP's answer lies up to 1.2e-3 rad/s (123 % of the bound) outside
+  it, and on the Panda, whose QP is ill-conditioned, default settings miss the exact rates by
+  2 rad/s. At ``eps_abs = eps_rel = 1e-9`` they match to 3e-9 rad/s, for 24-34 iterations instead
+  of 11-13 at 1e-6: about 5 us more per tick.
+- OSQP checks termination every 25 iterations by default, which hides what a warm start saves (no
+  solve stops before iteration 25); checking every iteration, a warm start takes 24 iterations
+  against 38 cold on the UR5, and 34 against more than 200 on the Panda. rho adapts every 25.
+- OSQP 1.x's polishing prints to stdout whenever no bound is active (most ticks), so it is off; the
+  returned rates are clipped into the bounds, which makes them respect the limits exactly.
+- A solve that stops short (``max_iter`` = 200, or solved inaccurately) is replaced by the exact
+  bounded least squares (``bounded_least_squares``, scipy's BVLS), and OSQP is warm-started from
+  it: ADMM is slow on the Panda's QP with a joint against its limit (measured: 1000 iterations did
+  not reach 1e-9 on the first ticks of such a run), an active-set method is not.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import qpsolvers
+import scipy.sparse as sp
+from scipy.optimize import lsq_linear
+
+from core.errors import InputError, NoConvergence
+from core.kinematics import Kinematics
+
+SINGULAR_REGION = 0.05
+"""epsilon: damping starts when the smallest singular value of the task Jacobian falls below it."""
+MAX_DAMPING = 0.05
+"""lambda_max: the damping reached at an exact singularity."""
+REDUNDANCY_DAMPING = 3e-3
+"""Least damping for a redundant arm (more joints than task rows). With lambda = 0 its QP is not
+strictly convex: the rates are unique only up to self-motion, which OSQP leaves where the warm
+start puts it (measured on the Panda: up to 5e-3 rad/s from the minimum-norm step, and self-motion
+that persists from tick to tick). This floor makes the step the minimum-norm one (1e-8 rad/s) at a
+relative task error of at most (lambda / sigma_min)^2, 0.4 % at the edge of the singular region,
+which the feedback term removes."""
+
+OSQP_SETTINGS: dict[str, float | int | bool] = {
+    "eps_abs": 1e-9,
+    "eps_rel": 1e-9,
+    "check_termination": 1,
+    "adaptive_rho_interval": 25,
+    "polishing": False,
+    "warm_starting": True,
+    "max_iter": 200,
+    "verbose": False,
+}
+"""Settings of the per-tick OSQP workspace (and defaults for ``solve_dls_qp(..., "osqp")``)."""
+ONE_SHOT_OSQP_SETTINGS: dict[str, float | int | bool] = {
+    "eps_abs": 1e-10,
+    "eps_rel": 1e-10,
+    "max_iter": 4000,
+}
+"""For ``solve_dls_qp`` (no fallback there): a cold start stops ~10x farther from the optimum than a
+warm-started tick at the same tolerance (measured: 1.2e-6 against 1.3e-7 rad/s on UR5 problems)."""
+
+
+def damping(
+    sigma_min: float,
+    region: float = SINGULAR_REGION,
+    max_damping: float = MAX_DAMPING,
+    floor: float = 0.0,
+) -> float:
+    """Damping lambda for the smallest singular value ``sigma_min`` of the task Jacobian.
+
+    ``lambda^2 = (1 - (sigma_min / region)^2) * max_damping^2`` inside the singular region
+    (``sigma_min < region``), else 0: zero away from singularities, so the step there is the exact
+    pseudo-inverse, and growing smoothly (C1 in sigma) to ``max_damping`` at a singularity. The form
+    is Chiaverini's (IEEE Trans. Robot. Autom. 13(3), 1997, eq. 14), after the damped least-squares
+    inverse of Nakamura & Hanafusa (1986) and Wampler (1986) and the singular-value-based damping of
+    Maciejewski & Klein (1988). ``floor`` is a least value (``REDUNDANCY_DAMPING`` for redundant arms).
+    """
+    if sigma_min >= region:
+        return floor
+    return max(floor, max_damping * float(np.sqrt(1.0 - (sigma_min / region) ** 2)))
+
+
+class RateLimits(NamedTuple):
+    """Joint limits that bound the rates of one tick.
+
+    Attributes:
+        position: ``(dof, 2)`` lower and upper joint positions [rad or m].
+        velocity: ``(dof,)`` joint speed limits [rad/s or m/s], > 0.
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray
+
+    @classmethod
+    def of(cls, robot: Kinematics) -> RateLimits:
+        """The position and velocity limits of ``robot``."""
+        return cls(
+            np.asarray(robot.position_limits, dtype=float),
+            np.asarray(robot.velocity_limits, dtype=float),
+        )
+
+
+@dataclass(frozen=True)
+class QpStep:
+    """Joint rates of one tick.
+
+    Attributes:
+        x: Joint rates ``(dof,)`` [rad/s], inside the bounds exactly (clipped after the solve).
+        found: The solver reported a solution (OSQP: solved, or solved inaccurately).
+        iterations: Solver iterations (ADMM iterations for OSQP; 0 when the backend does not say).
+        solve_time: Wall time [s] of the update and solve.
+        status: The solver's status.
+        violation: How far the solver's own rates were outside the bounds before clipping [rad/s].
+        fallback: OSQP stopped short and the exact bounded least squares gave the rates.
+    """
+
+    x: np.ndarray
+    found: bool
+    iterations: int
+    solve_time: float
+    status: str
+    violation: float = 0.0
+    fallback: bool = False
+
+
+def rate_bounds(q: np.ndarray, limits: RateLimits, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds ``(lower, upper)`` (dof,) [rad/s] on the rates of a tick of ``dt`` [s] from ``q``.
+
+    The velocity limits intersected with ``(q_min - q)/dt <= qd <= (q_max - q)/dt``. Were ``q``
+    outside its limits (the controller never lets it), the bounds would move it back at full speed
+    rather than becoming empty.
+    """
+    v = limits.velocity
+    lower = np.maximum(-v, (limits.position[:, 0] - q) / dt)
+    upper = np.minimum(v, (limits.position[:, 1] - q) / dt)
+    return np.minimum(lower, v), np.maximum(upper, -v)
+
+
+def build_dls_qp(
+    J: np.ndarray, V: np.ndarray, lam: float, q: np.ndarray, limits: RateLimits, dt: float
+) -> qpsolvers.Problem:
+    """The QP of one tick (see the module docstring) as a ``qpsolvers.Problem`` with box bounds.
+
+    Args:
+        J: Task rows of the Jacobian, ``(m, dof)`` (m = 6 for ``pose``, 2 for ``position_xy``).
+        V: Task twist ``(m,)`` [m/s, rad/s], base frame, linear part first.
+        lam: Damping lambda >= 0 (units of the singular values of ``J``).
+        q: Joint positions ``(dof,)`` at the start of the tick [rad or m].
+        limits: Joint position and velocity limits.
+        dt: Control period [s], > 0.
+    """
+    lower, upper = rate_bounds(q, limits, dt)
+    P = J.T @ J + lam**2 * np.eye(J.shape[1])
+    return qpsolvers.Problem(P, -J.T @ V, lb=lower, ub=upper)
+
+
+def check_solver(solver: str) -> str:
+    """``solver`` if qpsolvers has it installed, else ``InputError`` on ``solver`` listing them."""
+    if solver not in qpsolvers.available_solvers:
+        available = sorted(qpsolvers.available_solvers)
+        raise InputError(
+            f"solver must be one of the installed QP solvers: {', '.join(available)}",
+            field=("solver",),
+            extra={"available": available},
+        )
+    return solver
+
+
+def solve_dls_qp(problem: qpsolvers.Problem, solver: str = "osqp", **options: object) -> QpStep:
+    """Solve ``problem`` (from ``build_dls_qp``) with any installed qpsolvers backend.
+
+    ``options`` go to the backend; for ``osqp`` they default to ``OSQP_SETTINGS`` with
+    ``ONE_SHOT_OSQP_SETTINGS``. The rates are
+    clipped into the problem's bounds. Raises ``NoConvergence`` when the backend finds no solution.
+    """
+    check_solver(solver)
+    if solver == "osqp":
+        options = {**OSQP_SETTINGS, **ONE_SHOT_OSQP_SETTINGS, "raise_error": False, **options}
+        options.pop("warm_starting", None)
+        P, q, G, h, A, b, lb, ub = problem.unpack()  # OSQP wants CSC (qpsolvers would warn)
+        problem = qpsolvers.Problem(sp.csc_matrix(P), q, G, h, A, b, lb, ub)
+    start = time.perf_counter()
+    try:
+        solution = qpsolvers.solve_problem(problem, solver=solver, **options)
+    except Exception as e:  # every backend raises its own exception types
+        raise NoConvergence(f"QP solver {solver} failed on the joint-rate problem") from e
+    elapsed = time.perf_counter() - start
+    if solution.x is None or not np.all(np.isfinite(solution.x)):
+        raise NoConvergence(f"QP solver {solver} found no joint rates")
+    info = (solution.extras or {}).get("info")
+    x = np.clip(solution.x, problem.lb, problem.ub)
+    return QpStep(
+        x=x,
+        found=bool(solution.found),
+        iterations=int(getattr(info, "iter", 0) or 0),
+        solve_time=elapsed,
+        status=str(getattr(info, "status", "solved" if solution.found else "not solved")),
+        violation=float(np.abs(solution.x - x).max()),
+    )
+
+
+class DlsQpSolver:
+    """The per-tick QP on one OSQP workspace: set up once, updated in place, warm-started.
+
+    ``P`` is a dense upper triangle in CSC (a fixed sparsity pattern) and ``A = I``, so the
+    constraints are the rate bounds; ``step`` writes new values of ``P``, ``c``, ``l`` and ``u``.
+    The update and solve go straight to OSQP's extension object when it has the 1.x methods (the
+    Python wrapper's bookkeeping costs about 20 us a tick), else through the public API.
+
+    Args:
+        dof: Number of joints.
+        settings: OSQP settings overriding ``OSQP_SETTINGS``.
+    """
+
+    def __init__(self, dof: int, **settings: object) -> None:
+        import osqp  # the backend of the fast path (qpsolvers' "osqp" imports it too)
+
+        self.dof = int(dof)
+        cols, rows = np.tril_indices(self.dof)  # column by column, rows 0..j: CSC order of triu
+        self._rows, self._cols = rows, cols
+        indptr = np.concatenate([[0], np.cumsum(np.arange(1, self.dof + 1))])
+        P = sp.csc_matrix((np.where(rows == cols, 1.0, 0.0), rows, indptr), shape=(dof, dof))
+        self._osqp = osqp.OSQP()
+        self._osqp.setup(
+            P,
+            np.zeros(self.dof),
+            sp.identity(self.dof, format="csc"),
+            -np.ones(self.dof),
+            np.ones(self.dof),
+            **{**OSQP_SETTINGS, **settings},
+        )
+        ext = getattr(self._osqp, "_solver", None)
+        needed = ("update_data_vec", "update_data_mat", "solve", "solution", "info")
+        self._ext = ext if all(hasattr(ext, name) for name in needed) else None
+        self._solved = int(osqp.SolverStatus.OSQP_SOLVED)
+        self._warm = bool({**OSQP_SETTINGS, **settings}["warm_starting"])
+
+    def step(
+        self, J: np.ndarray, V: np.ndarray, lam: float, lower: np.ndarray, upper: np.ndarray
+    ) -> QpStep:
+        """Rates minimizing ``||J qd - V||^2 + lam^2 ||qd||^2`` within ``lower <= qd <= upper``.
+
+        Args:
+            J: Task Jacobian ``(m, dof)``.
+            V: Task twist ``(m,)``.
+            lam: Damping >= 0.
+            lower: ``(dof,)`` lower rate bounds [rad/s] (from ``rate_bounds``), <= ``upper``.
+            upper: ``(dof,)`` upper rate bounds [rad/s].
+
+        When OSQP stops short of its tolerance (``max_iter``, or solved inaccurately: ADMM is slow
+        on the ill-conditioned QP of a redundant arm with a joint against a limit), the tick is
+        solved exactly by ``bounded_least_squares`` and OSQP is warm-started from that answer.
+        """
+        start = time.perf_counter()
+        H = J.T @ J
+        H.flat[:: self.dof + 1] += lam * lam
+        c = -(J.T @ V)
+        if self._ext is not None:
+            ext = self._ext
+            ext.update_data_vec(q=c, l=lower, u=upper)
+            ext.update_data_mat(P_x=H[self._rows, self._cols], P_i=None, A_x=None, A_i=None)
+            ext.solve()
+            x, info = ext.solution.x, ext.info
+        else:
+            self._osqp.update(Px=H[self._rows, self._cols], q=c, l=lower, u=upper)
+            result = self._osqp.solve(raise_error=False)
+            x, info = result.x, result.info
+        status, iterations = str(info.status), int(info.iter)
+        fallback = int(info.status_val) != self._solved or not np.all(np.isfinite(x))
+        if fallback:
+            x = bounded_least_squares(J, V, lam, lower, upper)
+            if self._warm:  # (OSQP's warm_start turns warm starting on)
+                self._osqp.warm_start(x=x, y=-(H @ x + c))  # the exact primal-dual pair (A = I)
+        clipped = np.minimum(np.maximum(x, lower), upper)
+        return QpStep(
+            x=clipped,
+            found=True,
+            iterations=iterations,
+            solve_time=time.perf_counter() - start,
+            status=status,
+            violation=float(np.abs(x - clipped).max()),
+            fallback=fallback,
+        )
+
+
+def bounded_least_squares(
+    J: np.ndarray, V: np.ndarray, lam: float, lower: np.ndarray, upper: np.ndarray
+) -> np.ndarray:
+    """The exact minimizer of ``||J qd - V||^2 + lam^2 ||qd||^2`` within the bounds ``(dof,)``:
+    ``min ||A qd - b||^2`` with ``A = [J; lam I]``, ``b = [V; 0]`` by scipy's BVLS (an active-set
+    method, Stark & Parker 1995). About 90 us for 7 joints: the fallback of ``DlsQpSolver``."""
+    dof = J.shape[1]
+    A = np.vstack([J, lam * np.eye(dof)])
+    b = np.concatenate([V, np.zeros(dof)])
+    upper_open = np.maximum(upper, lower + 1e-12)  # BVLS wants lower < upper strictly
+    x = lsq_linear(A, b, bounds=(lower, upper_open), method="bvls", tol=1e-12).x
+    return np.minimum(np.maximum(x, lower), upper)

@@ -1,0 +1,109 @@
+"""The Cartesian problem and its answer: ``CartesianTask`` (frozen input) and ``CartesianResult``
+(frozen output carrying every diagnostic the response shows).
+
+Every method (``core.cartesian.methods.METHODS``) takes a ``CartesianTask`` and returns a
+``CartesianResult`` that ``core.cartesian.check.finish`` has checked and measured.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from core.budget import NO_DEADLINE, Deadline
+from core.cartesian.measure import DeviationReport
+from core.kinematics import Kinematics
+from core.path.line import StraightLine
+from core.trajectory import Trajectory
+
+DEFAULT_MAX_LINEAR_SPEED = 0.25
+"""Tool speed [m/s] used when a request gives neither a duration nor speed limits."""
+DEFAULT_MAX_ANGULAR_SPEED = 1.0
+"""Tool angular speed [rad/s] used when a request gives neither a duration nor speed limits."""
+
+
+@dataclass(frozen=True)
+class CartesianTask:
+    """Move the tool on the straight line from FK(q_start) to T_goal.
+
+    Attributes:
+        robot: Kinematics of the arm.
+        q_start: Start joint positions ``(dof,)``.
+        T_goal: Goal tool pose ``T_base_tool`` (4, 4).
+        q_goal: Goal joint positions when the request gave them (a hint for the end branch).
+        position_tolerance: Allowed deviation from the line [m].
+        orientation_tolerance: Allowed orientation deviation [rad].
+        duration: Fixed duration [s], or None to time from speed limits.
+        max_linear_speed: Tool speed limit [m/s] (None: default when no duration either).
+        max_angular_speed: Tool angular speed limit [rad/s].
+        sample_period: Spacing of returned points [s], or None.
+        samples: Number of returned points, or None.
+        control_period: Control tick [s] of the rate methods.
+        allow_partial: Return the planned prefix (fraction < 1) instead of failing.
+        allow_violations: Return a plan that leaves the tolerance between its returned points or
+            exceeds a joint acceleration limit (with warnings) instead of failing.
+        solver: QP solver name for ``resolved_rate_dls``.
+        deadline: Wall-time budget.
+    """
+
+    robot: Kinematics
+    q_start: np.ndarray
+    T_goal: np.ndarray
+    q_goal: np.ndarray | None = None
+    position_tolerance: float = 1e-3
+    orientation_tolerance: float = 1e-2
+    duration: float | None = None
+    max_linear_speed: float | None = None
+    max_angular_speed: float | None = None
+    sample_period: float | None = None
+    samples: int | None = None
+    control_period: float = 1e-3
+    allow_partial: bool = False
+    allow_violations: bool = False
+    solver: str = "osqp"
+    deadline: Deadline = NO_DEADLINE
+
+    def line(self) -> StraightLine:
+        """The straight line from FK(q_start) to T_goal."""
+        return StraightLine(self.robot.fk(self.q_start), self.T_goal, self.robot.task_space)
+
+    def speeds(self) -> tuple[float | None, float | None]:
+        """Tool speed limits [m/s], [rad/s], with the defaults when nothing times the motion."""
+        if (
+            self.duration is None
+            and self.max_linear_speed is None
+            and self.max_angular_speed is None
+        ):
+            return DEFAULT_MAX_LINEAR_SPEED, DEFAULT_MAX_ANGULAR_SPEED
+        return self.max_linear_speed, self.max_angular_speed
+
+
+@dataclass(frozen=True)
+class CartesianResult:
+    """What a Cartesian method returns (frozen: a later stage builds a new one with ``replace``).
+
+    Attributes:
+        trajectory: The returned joint trajectory.
+        fraction: Share of the line planned, in [0, 1] (< 1 only with ``allow_partial``).
+        deviation: Dense deviation of ``trajectory`` from the line (set by ``finish``).
+        min_singular_value: Smallest singular value of the task Jacobian met (set by ``finish``).
+        singular_values: Smallest singular value of the task Jacobian at each returned point
+            ``(N,)`` (set by ``finish``; the response's ``singular_value_profile``).
+        warnings: Things the client should know (slow-downs, damping, clipping).
+        knots: Knots of the bounded-deviation methods: ``s`` (K,), ``times`` (K,), ``positions``
+            (K, dof); None for the others.
+        diagnostics: Method-specific figures (JSON-serializable).
+        failure: The error that ended a partial plan.
+    """
+
+    trajectory: Trajectory
+    fraction: float = 1.0
+    deviation: DeviationReport | None = None
+    min_singular_value: float = float("nan")
+    singular_values: np.ndarray | None = None
+    warnings: tuple[str, ...] = ()
+    knots: dict[str, np.ndarray] | None = None
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+    failure: Exception | None = None

@@ -1,0 +1,352 @@
+"""The walk of the ``sampled`` method: IK at points along the line, every point checked.
+
+``walk_line`` solves IK at equally spaced points of the line (the step derived from the tolerance:
+``STEP_PER_TOLERANCE`` times it, between ``MIN_INTERVALS`` and ``MAX_INTERVALS`` intervals), each
+seeded where the Jacobian predicts the arm will be, q + dq/ds ds with dq/ds = J^+ V (V: the line's
+twist per unit s), so the arm stays on one branch. A step that misbehaves is halved, down to
+``MIN_STEP``; what still fails there is the failure, with its cause and s:
+
+- ``unreachable`` (Type I): no IK solution within ``IK_TOLERANCE`` (1e-6 m and rad);
+- ``joint_limit``: the solution on the branch being followed leaves the joint limits (IK runs
+  without clipping to the limits, so a redundant arm is not slid along a limit off its path);
+- ``branch_flip``: a joint step off the Jacobian's prediction by more than ``STRICT_BRANCH``
+  (``core.cartesian.ik_on_path.follows``) even for the smallest step (IK on another branch);
+- ``singularity`` (Type II): the smallest singular value of the task Jacobian is below
+  ``SINGULAR_VALUE_THRESHOLD``, or joint rates need a slow-down below
+  ``core.cartesian.timing.MIN_SPEED_FRACTION`` of the requested speed.
+
+``plan_sampled`` times the walked path with ``core.cartesian.timing.time_path``, places the returned
+points (IK at each, seeded from the walk and checked to be on its branch), and returns the planned
+prefix with ``fraction`` < 1 when ``allow_partial`` is set.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import NamedTuple
+
+import numpy as np
+
+from core.cartesian.ik_on_path import (
+    IK_SOLVE_TOLERANCE,
+    IK_TOLERANCE,
+    STRICT_BRANCH,
+    follows,
+    residual,
+    solve_ik,
+)
+from core.cartesian.joint_limits import inside, worst_joint
+from core.cartesian.path_rates import PathRates, path_rates
+from core.cartesian.task import CartesianTask
+from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
+from core.errors import (
+    BranchFlip,
+    JointLimit,
+    PlanningError,
+    Singularity,
+    Unreachable,
+)
+from core.kinematics import task_rows
+from core.path.line import StraightLine
+
+SINGULAR_VALUE_THRESHOLD = 1e-3
+"""Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a point is
+singular. At 1e-3 a joint turning at 1 rad/s moves the tool by at most 1 mm/s in the weakest
+direction: following the line there needs joint rates ~100 times any arm's limits."""
+STEP_PER_TOLERANCE = 10.0
+"""Walk step: this many position tolerances [m] of travel, or orientation tolerances [rad]."""
+MIN_INTERVALS = 50
+MAX_INTERVALS = 2000
+MIN_STEP = 1e-5
+"""Smallest step in s when a step is halved: where a failure is located."""
+MAX_JOINT_STEP = 0.1
+"""Largest joint step [rad] the walk predicts in one step; where joints move fast it steps shorter."""
+EDGE_PROBE = 1e-3
+"""How far past a singular point [in s] IK is tried to tell the workspace's edge (Type I)."""
+EDGE_SEED_OFFSET = 0.1
+"""[rad] IK seeds on both sides of a singular surface when telling the workspace's edge."""
+GOAL_SNAP = 1e-5
+"""End configuration within this of ``q_goal`` [rad] is replaced by ``q_goal`` (same solution)."""
+GOAL_BRANCH_WARNING = 1e-3
+"""End configuration farther than this from ``q_goal`` [rad]: a warning."""
+_EXACT = 10.0 * IK_SOLVE_TOLERANCE
+"""An IK residual above this (yet within IK_TOLERANCE) means IK could not converge fully."""
+
+TWO_PI = 2.0 * np.pi
+
+
+def check_grid(task: CartesianTask, line: StraightLine) -> np.ndarray:
+    """Equally spaced s of the walk: a step of ``STEP_PER_TOLERANCE`` tolerances of travel."""
+    n = max(
+        line.length / (STEP_PER_TOLERANCE * task.position_tolerance),
+        line.angle / (STEP_PER_TOLERANCE * task.orientation_tolerance),
+    )
+    return np.linspace(0.0, 1.0, int(np.clip(np.ceil(n), MIN_INTERVALS, MAX_INTERVALS)) + 1)
+
+
+@dataclass(frozen=True)
+class LineWalk:
+    """IK along the line, up to the first failure.
+
+    Attributes:
+        s: Path parameters of the solved points, ``(K,)``, from 0 to the last one reached.
+        positions: Their joint positions, ``(K, dof)``, on one branch.
+        rates: ``PathRates`` at them (d2q/ds2 included).
+        failure: What stopped the walk before s = 1, else None.
+        ik_calls: IK solves spent.
+    """
+
+    s: np.ndarray
+    positions: np.ndarray
+    rates: PathRates
+    failure: PlanningError | None
+    ik_calls: int
+
+    @property
+    def end(self) -> float:
+        return float(self.s[-1])
+
+    def before(self, s: float) -> LineWalk:
+        """The walk cut to the points at least ``MIN_STEP`` before ``s``."""
+        keep = self.s <= s - MIN_STEP
+        keep[0] = True
+        rates = PathRates(*(a[keep] for a in self.rates))
+        return replace(self, s=self.s[keep], positions=self.positions[keep], rates=rates)
+
+
+class Seed(NamedTuple):
+    """A solved point to continue from: joint positions, dq/ds there, and the step in s to take."""
+
+    q: np.ndarray
+    dq: np.ndarray
+    h: float
+
+
+class Walker:
+    """One walk's context: the robot, the line, the step checks and the IK call count."""
+
+    def __init__(self, task: CartesianTask, line: StraightLine, nominal_speed: float) -> None:
+        self.task, self.robot, self.line = task, task.robot, line
+        self.floor = MIN_SPEED_FRACTION * nominal_speed if np.isfinite(nominal_speed) else 0.0
+        self.lo, self.hi = self.robot.position_limits[:, 0], self.robot.position_limits[:, 1]
+        self.ik_calls = 0
+        # IK must not clip its iterates into the joint limits (``robots.Robot.ik`` does by default):
+        # clipping would slide a redundant arm along a limit, off the path its rates describe; the
+        # limits are checked here instead, on the solution of the branch being followed.
+
+    def ik(self, T: np.ndarray, seed: np.ndarray) -> tuple[np.ndarray, bool, float]:
+        """(positions, on the line, residual [m or rad])."""
+        self.ik_calls += 1
+        r = solve_ik(self.robot, T, seed)
+        res = residual(r)
+        return np.asarray(r.positions, dtype=float), bool(res <= IK_TOLERANCE), res
+
+    def inside(self, q: np.ndarray) -> bool:
+        return bool(inside(q, self.robot.position_limits))
+
+    def unwrap(self, q: np.ndarray, ref: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """``q`` with whole turns removed toward ``ref`` where that keeps the limits and the pose."""
+        turns = np.round((q - ref) / TWO_PI)
+        if not turns.any():
+            return q
+        cand = q - TWO_PI * turns
+        if not self.inside(cand):
+            return q
+        dp = np.abs(self.robot.fk(cand) - T).max()
+        return cand if dp <= IK_TOLERANCE else q
+
+    def reached(self, q: np.ndarray, ok: bool, residual: float) -> bool:
+        """IK converged; a loose convergence (residual over ``_EXACT``) at a singular configuration
+        does not count: that is the edge of the workspace (a fold), where the line leaves it."""
+        if not ok:
+            return False
+        if residual <= _EXACT:
+            return True
+        sigma = path_rates(self.robot, self.line, q[None], second_order=False).sigma[0]
+        return bool(sigma >= SINGULAR_VALUE_THRESHOLD)
+
+    def on_branch(self, q: np.ndarray, seed: Seed) -> bool:
+        """Whether ``q`` continues the branch from ``seed``: within ``STRICT_BRANCH`` of the
+        Jacobian's prediction (plus its slack); or, for a step of at most 2 ``MIN_STEP``,
+        within what the larger of the rates at both ends allows (the mean-value bound, which holds
+        where the rates grow fast, next to a fold of the workspace or a singularity)."""
+        step = seed.dq * seed.h
+        if follows(q, seed.q, step):
+            return True
+        if abs(seed.h) > 2.0 * MIN_STEP:
+            return False
+        rates = path_rates(self.robot, self.line, q[None], second_order=False)
+        ratio, slack = STRICT_BRANCH
+        bound = (1.0 + ratio) * np.maximum(np.abs(step), np.abs(rates.dq_ds[0] * seed.h))
+        return bool(np.all(np.abs(q - seed.q) <= bound + slack))
+
+    def solve(self, s: float, T: np.ndarray, seeds: list[Seed]) -> np.ndarray | PlanningError:
+        """IK at ``T`` (path parameter ``s``) on the branch of the seeds (solved points nearby)."""
+        names = self.robot.joint_names
+        reached: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        residual = np.inf
+        for seed in seeds:
+            step = seed.dq * seed.h
+            pred = seed.q + step
+            for start in (pred, seed.q):
+                q, ok, res = self.ik(T, start)
+                residual = min(residual, res)
+                if not self.reached(q, ok, res):
+                    continue
+                q = self.unwrap(q, pred, T)
+                if self.on_branch(q, seed):
+                    if not self.inside(q):
+                        j = worst_joint(q, self.robot.position_limits)
+                        return JointLimit(
+                            f"joint {names[j]} leaves its position limits at s={s:.4f}",
+                            s=s,
+                            joint=j,
+                        )
+                    return q
+                reached = reached or (q, pred, step)
+        if reached is not None:
+            q, pred, step = reached
+            if not self.inside(pred):
+                j = worst_joint(pred, self.robot.position_limits)
+                return JointLimit(
+                    f"joint {names[j]} would leave its position limits at s={s:.4f} on the branch "
+                    "the arm is on (IK finds only another branch)",
+                    s=s,
+                    joint=j,
+                )
+            j = int(np.argmax(np.abs(q - pred)))
+            return BranchFlip(
+                f"joint {names[j]} would jump by {abs(q[j] - pred[j] + step[j]):.3g} rad at "
+                f"s={s:.4f} where the Jacobian predicts {abs(step[j]):.3g} rad: IK is on another branch",
+                s=s,
+                joint=j,
+            )
+        return Unreachable(
+            f"no IK solution within {IK_TOLERANCE:g} m at s={s:.4f} (the closest is "
+            f"{residual:.3g} off)",
+            s=s,
+            extra={"residual": residual},
+        )
+
+    def advance(
+        self, s0: float, q0: np.ndarray, dq0: np.ndarray, s1: float
+    ) -> tuple[np.ndarray, PathRates] | PlanningError:
+        """One step of the walk from (s0, q0) with rates dq0 to s1: the point and its rates."""
+        q = self.solve(s1, self.line.pose(s1), [Seed(q0, dq0, s1 - s0)])
+        if isinstance(q, PlanningError):
+            return q
+        rates = self.check_point(s1, q)
+        return rates if isinstance(rates, PlanningError) else (q, rates)
+
+    def workspace_edge(self, s: float, q: np.ndarray) -> Unreachable | None:
+        """A singular point at ``s`` that is the edge of the workspace (a fold: IK fails
+        ``EDGE_PROBE`` further on) is a Type I failure: the first unreachable s, by bisection."""
+        rows = task_rows(self.robot.task_space)
+        J = self.robot.jacobian(q)[rows]
+        # Seeds on both sides of the singular surface: along the joint motion the arm loses.
+        lost = np.linalg.svd(J)[2][min(len(rows), self.robot.dof) - 1]
+        seeds = (q, q + EDGE_SEED_OFFSET * lost, q - EDGE_SEED_OFFSET * lost)
+
+        def reachable(at: float, starts: tuple[np.ndarray, ...] = seeds) -> tuple[bool, float]:
+            best = np.inf
+            for seed in starts:
+                found, ok, res = self.ik(self.line.pose(at), seed)
+                if self.reached(found, ok, res):
+                    return True, res
+                best = min(best, res)
+            return False, best
+
+        lo, hi = s, min(1.0, s + EDGE_PROBE)
+        if hi <= lo:
+            return None
+        # Reachable on another branch (seeds spread over the joint space) is not an edge.
+        rng = np.random.default_rng(0)
+        spread = rng.uniform(np.maximum(self.lo, -np.pi), np.minimum(self.hi, np.pi), (8, len(q)))
+        found, residual = reachable(hi, seeds + tuple(spread))
+        if found:
+            return None
+        while hi - lo > MIN_STEP:
+            mid = 0.5 * (lo + hi)
+            found, res = reachable(mid)
+            if found:
+                lo = mid
+            else:
+                hi, residual = mid, res
+        return Unreachable(
+            f"no IK solution within {IK_TOLERANCE:g} m at s={hi:.4f}: the line leaves the "
+            f"workspace there (the closest is {residual:.3g} off; the arm is singular at the edge)",
+            s=hi,
+            extra={"residual": residual},
+        )
+
+    def check_point(self, s: float, q: np.ndarray) -> PathRates | PlanningError:
+        """Rates at ``q`` and the Type II checks."""
+        rates = path_rates(self.robot, self.line, q[None], second_order=False)
+        sigma = float(rates.sigma[0])
+        if sigma < SINGULAR_VALUE_THRESHOLD:
+            return Singularity(
+                f"the Jacobian is singular at s={s:.4f} (smallest singular value {sigma:.3g} < "
+                f"{SINGULAR_VALUE_THRESHOLD:g}): the line needs motion the arm cannot give",
+                s=s,
+                extra={"min_singular_value": sigma},
+            )
+        with np.errstate(divide="ignore"):
+            cap = float(np.min(self.robot.velocity_limits / np.abs(rates.dq_ds[0])))
+        if cap < self.floor:
+            return Singularity(
+                f"joint rates at s={s:.4f} would need the tool slowed below "
+                f"{MIN_SPEED_FRACTION:.1%} of its speed: no finite slow-down keeps them within limits",
+                s=s,
+                extra={"min_singular_value": sigma},
+            )
+        return rates
+
+
+def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None = None) -> LineWalk:
+    """IK along ``line`` from ``task.q_start`` (see the module docstring); stops at the first failure.
+
+    Args:
+        grid: Path parameters to solve at, increasing from 0 to 1 (default ``check_grid``).
+    """
+    w = Walker(task, line, nominal_path_speed(task, line))
+    grid = check_grid(task, line) if grid is None else np.asarray(grid, dtype=float)
+    q = np.asarray(task.q_start, dtype=float)
+    needed = len(task_rows(task.robot.task_space))
+    if task.robot.dof < needed:
+        raise Singularity(
+            f"the arm has {task.robot.dof} joints, fewer than the {needed} a line in its task space "
+            "needs: its Jacobian is singular everywhere",
+            s=0.0,
+            extra={"min_singular_value": 0.0},
+        )
+    first = w.check_point(0.0, q)
+    if isinstance(first, PlanningError):
+        raise first
+    s_list, q_list, dq_list = [0.0], [q], [first.dq_ds[0]]
+    failure: PlanningError | None = None
+    s_cur, h_max = 0.0, float(np.max(np.diff(grid)))
+    h = h_max
+    for target in grid[1:]:
+        while failure is None and s_cur < target:
+            task.deadline.check("sampled IK along the line")
+            fastest = float(np.abs(dq_list[-1]).max())
+            if fastest * h > MAX_JOINT_STEP:  # the prediction is only good for small joint steps
+                h = max(MAX_JOINT_STEP / fastest, MIN_STEP)
+            s_try = target if target - (s_cur + h) < 0.5 * MIN_STEP else s_cur + h
+            out = w.advance(s_cur, q_list[-1], dq_list[-1], s_try)
+            if isinstance(out, PlanningError):
+                if s_try - s_cur <= MIN_STEP:
+                    failure = out
+                    if isinstance(out, Singularity):
+                        failure = w.workspace_edge(s_try, q_list[-1]) or out
+                h = 0.5 * (s_try - s_cur)
+                continue
+            s_list.append(s_try)
+            q_list.append(out[0])
+            dq_list.append(out[1].dq_ds[0])
+            s_cur, h = s_try, min(2.0 * h, h_max)
+        if failure is not None:
+            break
+    positions = np.array(q_list)
+    rates = path_rates(task.robot, line, positions, deadline=task.deadline)
+    return LineWalk(np.array(s_list), positions, rates, failure, w.ik_calls)

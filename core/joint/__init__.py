@@ -1,0 +1,1 @@
+"""Joint-space planning: point-to-point profiles (``profiles.PROFILES``), splines, durations."""

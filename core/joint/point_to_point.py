@@ -1,0 +1,85 @@
+"""Planning a point-to-point joint move: the checks, the profile from the registry, sampling.
+
+``plan_joint`` is the one core call of ``POST /v1/trajectories/joint``: it validates the move
+against the profile and the limits, lets the ``PROFILES`` entry time and build the profile (the
+shortest duration within the limits when none is given), samples it, and verifies the exact peaks
+and the samples against the limits. Units: [rad or m], [s]; arrays ``(dof,)`` or ``(N, dof)``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from core.budget import NO_DEADLINE, Deadline
+from core.errors import InputError
+from core.joint.motion import PointToPoint, State
+from core.joint.profiles import PROFILES
+from core.limits import JointLimits, check_boundary_rates, check_positions, check_rates
+from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names, sample_times
+
+__all__ = ["PROFILES", "JointPlan", "PointToPoint", "State", "plan_joint"]
+
+
+class JointPlan(NamedTuple):
+    """A planned move: the sampled ``trajectory`` (with the profile's exact peaks), the
+    ``profile`` (sample it anywhere in ``[0, T]``) and human-readable ``warnings``."""
+
+    trajectory: Trajectory
+    profile: Profile
+    warnings: tuple[str, ...]
+
+
+def plan_joint(
+    kind: str,
+    motion: PointToPoint,
+    limits: JointLimits | None = None,
+    *,
+    duration: float | None = None,
+    sample_period: float | None = None,
+    samples: int | None = None,
+    max_points: int = MAX_POINTS,
+    joint_names: tuple[str, ...] = (),
+    deadline: Deadline = NO_DEADLINE,
+) -> JointPlan:
+    """Plan and sample a point-to-point move: the one core call of the joint-space route.
+
+    Without ``duration`` [s], the shortest one within the ``limits``; with it, a plan over known
+    limits is ``JointRateLimit`` (``Infeasible`` for ``jerk_limited``), naming the shortest feasible
+    duration. Boundary positions and every sample must stay within ``limits.position``
+    (``JointLimit``); boundary rates must be within the rate limits (``JointRateLimit``) and
+    honoured by the profile (``ProfileKind.boundary_rates``; ``InputError`` naming the field
+    otherwise). Sampling as ``sample_times``. ``deadline`` is checked after the timing and after
+    the sampling (``TimeBudgetExceeded``).
+    """
+    limits = limits or JointLimits()
+    dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
+    spec = PROFILES.get(kind)
+    if spec is None:
+        raise InputError(f"profile must be one of {', '.join(PROFILES)}", field=("profile",))
+    if len(names) != dof:
+        raise InputError(f"{dof} positions for {len(names)} joints", field=("start", "positions"))
+    limits.validate(dof)
+    _check_boundaries(kind, motion, limits, names)
+    profile = spec.timed(motion, limits, duration, names)
+    deadline.check("joint profile timing")
+    times = sample_times(profile.duration, sample_period, samples, max_points)
+    trajectory = Trajectory.from_profile(profile, times, names)
+    deadline.check("joint profile sampling")
+    check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
+    check_positions(trajectory.positions, limits, names, times=times)
+    return JointPlan(trajectory, profile, spec.warnings(motion))
+
+
+def _check_boundaries(kind: str, m: PointToPoint, limits: JointLimits, names: tuple) -> None:
+    maxima = {"velocities": limits.velocity, "accelerations": limits.acceleration}
+    spec = PROFILES[kind]
+    for end, state in (("start", m.start), ("goal", m.goal)):
+        check_positions(state.positions[None], limits, names, field=(end, "positions"))
+        for what, limit in maxima.items():
+            value = getattr(state, what)
+            if what not in spec.boundary_rates and value.any():
+                raise InputError(f"the {kind} profile takes no non-zero {what}", field=(end, what))
+            if limit is not None and spec.rates_checked_here:  # unknown limit: infinite
+                check_boundary_rates(value, np.asarray(limit, dtype=float), (end, what), names)

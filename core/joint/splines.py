@@ -1,0 +1,330 @@
+"""C2 cubic splines through via points, their boundary conditions, and time allocation under limits.
+
+n + 1 knots, n cubics, 4n unknowns: C2 at the interior knots plus one condition per end (course
+notes section 6). scipy's ``CubicSpline`` solves it exactly; this module picks the knot times when
+the client gives none, and checks the result against the limits. Boundary conditions:
+
+- ``clamped``: end velocities given (default zero, a rest-to-rest plan);
+- ``natural``: zero end accelerations (end velocities free, so the plan does not end at rest);
+- ``not-a-knot``: the first two and the last two pieces are one cubic each. With 2 waypoints scipy
+  returns the straight line (as for ``natural``), with 3 the single parabola through them.
+
+Units: positions [rad or m], times [s]; waypoints ``(n + 1, dof)``, knot times ``(n + 1,)``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from core.budget import NO_DEADLINE, Deadline
+from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
+from core.joint import durations
+from core.limits import (
+    JointLimits,
+    check_boundary_rates,
+    check_positions,
+    check_rates,
+    joint_vector,
+)
+from core.trajectory import MAX_POINTS, Peaks, Trajectory, default_joint_names, sample_times
+
+BOUNDARIES = ("clamped", "natural", "not-a-knot")
+MIN_KNOT_SPACING = 1e-6
+"""Smallest interval [s] between two given knot times."""
+SAMPLE_BLOCK = 2048
+"""Samples evaluated at once by ``SplineProfile.sample`` (its temporaries stay in cache)."""
+SHAPE_ITERATIONS = 8
+"""Rounds of segment-wise re-allocation before the final uniform scaling."""
+
+
+class SplineProfile:
+    """A C2 cubic spline ``q(t)`` through ``waypoints`` at ``knot_times``: build once, sample often.
+
+    Args:
+        knot_times: ``(n + 1,)`` in [s], strictly increasing from 0.
+        waypoints: ``(n + 1, dof)``.
+        boundary: One of ``BOUNDARIES``.
+        start_velocity, goal_velocity: ``(dof,)`` end velocities of a ``clamped`` spline.
+    """
+
+    method = "spline"
+
+    def __init__(
+        self,
+        knot_times: np.ndarray,
+        waypoints: np.ndarray,
+        boundary: str = "clamped",
+        start_velocity: np.ndarray | None = None,
+        goal_velocity: np.ndarray | None = None,
+    ) -> None:
+        dof = waypoints.shape[1]
+        v0 = np.zeros(dof) if start_velocity is None else start_velocity
+        v1 = np.zeros(dof) if goal_velocity is None else goal_velocity
+        bc = ((1, v0), (1, v1)) if boundary == "clamped" else boundary
+        self.spline = CubicSpline(knot_times, waypoints, bc_type=bc, axis=0)
+        self._coeffs = np.ascontiguousarray(self.spline.c.transpose(0, 2, 1))  # (4, dof, n)
+        self.knot_times, self.boundary = knot_times, boundary
+        self.duration = float(knot_times[-1])
+        zero = np.zeros(dof) if boundary == "natural" else None
+        clamped = boundary == "clamped"
+        self._ends = (
+            (0.0, (waypoints[0], v0 if clamped else None, zero)),
+            (self.duration, (waypoints[-1], v1 if clamped else None, zero)),
+        )
+
+    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
+        """Derivative ``order`` at times ``t`` ``(N,)`` -> ``(N, dof)``; exact at the ends."""
+        t = np.asarray(t, dtype=float)
+        return self._pin(self._hits(t), order, np.asarray(self.spline(t, nu=order)))
+
+    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities, accelerations at ``t`` ``(N,)``, each ``(N, dof)``: the same as
+        three calls (to ~1e-15), with one interval search and Horner's rule on ``(dof, N)`` rows
+        in blocks of ``SAMPLE_BLOCK`` samples (the working set stays in cache): faster than
+        scipy's three evaluations."""
+        t = np.asarray(t, dtype=float)
+        knots = self.knot_times
+        k = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
+        x = t - knots[k]
+        n, dof = t.size, self._coeffs.shape[1]
+        q, qd, qdd = np.empty((3, n, dof))  # one allocation: large ones cost page faults
+        for lo in range(0, n, SAMPLE_BLOCK):
+            hi = min(n, lo + SAMPLE_BLOCK)
+            xs = x[lo:hi]
+            a, b, c, d = np.take(self._coeffs, k[lo:hi], axis=2)  # each (dof, hi - lo)
+            # Horner with its derivatives: p = a x + b, then p x + c (=: r), q = r x + d;
+            # qd = (a x + p) x + r = 3a x^2 + 2b x + c; qdd = 2 (a x + p + a x) = 6a x + 2b.
+            # Rows are (dof, block) (the long axis innermost), copied into the (N, dof) outputs.
+            ax = a * xs
+            p = ax + b
+            dp = ax + p
+            acc = dp + ax
+            acc *= 2.0
+            p *= xs
+            p += c
+            pos = p * xs
+            pos += d
+            dp *= xs
+            dp += p
+            q[lo:hi], qd[lo:hi], qdd[lo:hi] = pos.T, dp.T, acc.T
+        hits = self._hits(t)
+        return self._pin(hits, 0, q), self._pin(hits, 1, qd), self._pin(hits, 2, qdd)
+
+    def _hits(self, t: np.ndarray) -> list[np.ndarray]:
+        """Indices of the samples at exactly each end (0 and the duration)."""
+        return [(t == at).nonzero()[0] for at, _ in self._ends]
+
+    def _pin(self, hits: list[np.ndarray], order: int, out: np.ndarray) -> np.ndarray:
+        for hit, (_, values) in zip(hits, self._ends, strict=True):
+            if order < len(values) and values[order] is not None and hit.size:
+                out[hit] = values[order]
+        return out
+
+    def segment_peaks(self) -> tuple[np.ndarray, np.ndarray]:
+        """Exact largest |velocity| and |acceleration| on each piece, each ``(n, dof)``.
+
+        On a piece ``c0 x^3 + c1 x^2 + c2 x + c3``, ``x`` in ``[0, h]``: the velocity peaks at an
+        end or at ``x* = -c1 / (3 c0)``; the acceleration is linear, so it peaks at an end.
+        """
+        c0, c1, c2 = self.spline.c[0], self.spline.c[1], self.spline.c[2]
+        h = np.diff(self.knot_times)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = -c1 / (3.0 * c0)
+            inside = np.isfinite(x) & (x > 0.0) & (x < h)
+            v_mid = np.where(inside, np.abs(c2 - c1**2 / (3.0 * c0)), 0.0)
+        v_end = np.abs(3.0 * c0 * h**2 + 2.0 * c1 * h + c2)
+        vel = np.maximum(np.maximum(np.abs(c2), v_end), v_mid)
+        acc = np.maximum(np.abs(2.0 * c1), np.abs(6.0 * c0 * h + 2.0 * c1))
+        return vel, acc
+
+    def peaks(self) -> Peaks:
+        """Exact largest |velocity|, |acceleration| and |jerk| (``6 |c0|``, constant on each
+        piece) over the whole spline, each ``(dof,)``."""
+        vel, acc = self.segment_peaks()
+        return Peaks(vel.max(axis=0), acc.max(axis=0), np.abs(6.0 * self.spline.c[0]).max(axis=0))
+
+
+class SplinePlan(NamedTuple):
+    """A planned spline: the sampled ``trajectory``, the ``profile``, its ``knot_times`` [s]
+    ``(n + 1,)`` and human-readable ``warnings``."""
+
+    trajectory: Trajectory
+    profile: SplineProfile
+    knot_times: np.ndarray
+    warnings: tuple[str, ...]
+
+
+def _segment_ratios(profile: SplineProfile, vmax: np.ndarray, amax: np.ndarray) -> np.ndarray:
+    """Per piece, the factor by which stretching time would just meet the limits, ``(n,)``."""
+    vel, acc = profile.segment_peaks()
+    return np.maximum(vel / vmax, np.sqrt(acc / amax)).max(axis=1)
+
+
+def allocate_times(
+    waypoints: np.ndarray,
+    boundary: str,
+    limits: JointLimits,
+    start_velocity: np.ndarray | None = None,
+    goal_velocity: np.ndarray | None = None,
+    deadline: Deadline = NO_DEADLINE,
+) -> np.ndarray:
+    """Knot times ``(n + 1,)`` [s] so the spline keeps within the velocity/acceleration limits.
+
+    Start: each piece gets the slowest joint's ``max(|dq|/vmax, 2 sqrt(|dq|/amax))`` (at least 5 %
+    of the longest piece). Scaling every time by ``k`` scales velocities by ``1/k`` and
+    accelerations by ``1/k^2``, so the exact factor follows from the exact peaks of each piece
+    (not only at the knots). A few rounds shrink the pieces with slack relative to the binding one;
+    the shortest total after exact scaling wins, so the binding limit is reached. With non-zero
+    clamped end velocities scaling is not exact, and the total is found by ``shortest_feasible``
+    (first within a factor 4 of the estimate, then over the whole range).
+    ``deadline`` is checked between fits (``TimeBudgetExceeded``).
+    """
+    dof = waypoints.shape[1]
+    vmax, amax = limits.maxima(dof)
+    if limits.velocity is None and limits.acceleration is None:
+        raise InputError("give times, or limits (or a robot) to time the spline", field=("limits",))
+    dq = np.abs(np.diff(waypoints, axis=0))
+    # No piece is faster than its distance over the speed limit: a sum of those beyond the longest
+    # duration is infeasible before any fit (a URDF's 1e-300 rad/s would overflow the knot times).
+    with np.errstate(over="ignore"):
+        lower = float((dq / vmax).max(axis=1).sum())
+    if not lower <= durations.MAX_DURATION:
+        raise Infeasible(
+            f"this spline needs more than {durations.MAX_DURATION:g} s under these limits",
+            field=("limits",),
+        )
+    h = np.maximum(dq / vmax, 2.0 * np.sqrt(dq / amax)).max(axis=1)
+    h = np.maximum(h, 0.05 * h.max()) if h.max() > 0.0 else np.ones_like(h)
+
+    def fit(pieces: np.ndarray) -> SplineProfile:
+        deadline.check("spline time allocation")
+        knots = np.concatenate([[0.0], np.cumsum(pieces)])
+        return SplineProfile(knots, waypoints, boundary, start_velocity, goal_velocity)
+
+    best = h
+    best_total = np.inf
+    for _ in range(SHAPE_ITERATIONS):
+        ratios = _segment_ratios(fit(h), vmax, amax)
+        k = ratios.max()
+        if k <= 0.0:
+            break
+        if k * h.sum() < best_total:
+            best, best_total = h * k, k * h.sum()
+        h = h * np.clip(ratios / k, 0.25, 1.0) ** 0.5
+    homogeneous = boundary != "clamped" or not (np.any(start_velocity) or np.any(goal_velocity))
+    if homogeneous:
+        total = durations.clamp_duration(
+            best_total if np.isfinite(best_total) else 0.0, "this spline"
+        )
+        return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
+
+    def excess(totals: np.ndarray) -> np.ndarray:
+        scaled = (best * (d / best.sum()) for d in totals)
+        return np.array([_segment_ratios(fit(p), vmax, amax).max() for p in scaled]) - 1.0
+
+    lower = max(durations.MIN_DURATION, best_total / 4.0)
+    upper = min(durations.MAX_DURATION, best_total * 4.0)
+    total = (
+        durations.shortest_feasible(excess, lower, upper, grid_points=25) if lower < upper else None
+    )
+    if total is None or total == lower:  # nothing near the estimate, or maybe shorter below it
+        total = durations.shortest_feasible(excess)
+    if total is None:
+        raise JointRateLimit(
+            f"no spline duration up to {durations.MAX_DURATION:g} s keeps every joint within its "
+            "limits with these end velocities"
+        )
+    return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
+
+
+def plan_spline(
+    waypoints: np.ndarray,
+    *,
+    times: np.ndarray | None = None,
+    boundary: str = "clamped",
+    start_velocity: np.ndarray | None = None,
+    goal_velocity: np.ndarray | None = None,
+    limits: JointLimits | None = None,
+    sample_period: float | None = None,
+    samples: int | None = None,
+    max_points: int = MAX_POINTS,
+    joint_names: tuple[str, ...] = (),
+    deadline: Deadline = NO_DEADLINE,
+) -> SplinePlan:
+    """Plan and sample a spline through ``waypoints`` ``(n + 1, dof)``: the one core call of the
+    spline route.
+
+    Without ``times``, knot times from ``allocate_times``; with them, a plan over known limits is
+    ``JointRateLimit``. Waypoints and every sample must stay within ``limits.position``
+    (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise).
+    """
+    limits = limits or JointLimits()
+    q = np.asarray(waypoints, dtype=float)
+    if q.ndim != 2 or q.shape[0] < 2 or q.shape[1] < 1 or not np.all(np.isfinite(q)):
+        raise InputError("waypoints must be 2 or more finite joint vectors", field=("waypoints",))
+    dof, names = q.shape[1], tuple(joint_names) or default_joint_names(q.shape[1])
+    if len(names) != dof:
+        raise InputError(
+            f"waypoints have {dof} values for {len(names)} joints", field=("waypoints", 0)
+        )
+    if boundary not in BOUNDARIES:
+        raise InputError(f"boundary must be one of {', '.join(BOUNDARIES)}", field=("boundary",))
+    if boundary != "clamped":
+        for name, value in (("start_velocity", start_velocity), ("goal_velocity", goal_velocity)):
+            if value is not None:
+                raise InputError(f"{name} applies to a clamped spline only", field=(name,))
+    v0 = joint_vector(start_velocity, dof, ("start_velocity",), default=0.0)
+    v1 = joint_vector(goal_velocity, dof, ("goal_velocity",), default=0.0)
+    limits.validate(dof)
+    check_positions(q, limits, names, field=("waypoints",))
+    vmax = limits.maxima(dof)[0]
+    check_boundary_rates(v0, vmax, ("start_velocity",), names)
+    check_boundary_rates(v1, vmax, ("goal_velocity",), names)
+    if times is None:
+        knots = allocate_times(q, boundary, limits, v0, v1, deadline)
+        profile = SplineProfile(knots, q, boundary, v0, v1)
+    else:
+        knots = _knot_times(times, q.shape[0])
+        profile = SplineProfile(knots, q, boundary, v0, v1)
+
+        def hint() -> str:
+            try:
+                allocated = allocate_times(q, boundary, limits, v0, v1, deadline)[-1]
+            except PlanningError:
+                return ""
+            return f"; times allocated within the limits would take {allocated:.6g} s"
+
+        if limits.velocity is not None or limits.acceleration is not None:
+            peaks = (peak.max(axis=0) for peak in profile.segment_peaks())
+            check_rates(*peaks, limits, names, hint=hint)
+    trajectory = Trajectory.from_profile(
+        profile, sample_times(profile.duration, sample_period, samples, max_points), names
+    )
+    if limits.velocity is not None or limits.acceleration is not None:  # else nothing to check
+        check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
+    check_positions(trajectory.positions, limits, names, times=trajectory.times)
+    warnings = () if not np.any(trajectory.velocities[-1]) else (durations.NONZERO_END_VELOCITY,)
+    return SplinePlan(trajectory, profile, knots, warnings)
+
+
+def _knot_times(times: object, count: int) -> np.ndarray:
+    """Given knot times as ``(count,)``, from 0, strictly increasing by at least 1 us, finite."""
+    t = np.asarray(times, dtype=float)
+    if t.shape != (count,):
+        raise InputError(f"times needs {count} values, one per waypoint", field=("times",))
+    if not np.all(np.isfinite(t)) or t[-1] > durations.MAX_DURATION:
+        raise InputError(
+            f"times must be finite and at most {durations.MAX_DURATION:g} s", field=("times",)
+        )
+    if t[0] != 0.0:
+        raise InputError("times must start at 0.0", field=("times", 0))
+    short = np.flatnonzero(np.diff(t) < MIN_KNOT_SPACING)
+    if short.size:
+        i = int(short[0]) + 1
+        raise InputError(
+            f"times must increase by at least {MIN_KNOT_SPACING:g} s", field=("times", i)
+        )
+    return t

@@ -1,0 +1,1 @@
+"""Motion programs: PTP, LIN and CIRC segments planned as one trajectory, blended at corners."""

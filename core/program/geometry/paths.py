@@ -1,0 +1,120 @@
+"""The geometry of each segment: its path, where blend spheres cut it, and its joint samples.
+
+``SegmentPath`` is one planned (or to-be-planned) segment: for LIN/CIRC the Cartesian path (a
+``core.path.line.StraightLine`` or ``core.path.arc.Arc``) and the IK walk along it; for PTP the joint
+straight line. ``s_in``/``s_out`` are the path parameters where the tool leaves the incoming blend
+sphere and enters the outgoing one (0 and 1 without blends).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from core.kinematics import Kinematics
+from core.path.arc import Arc
+from core.path.line import StraightLine
+from core.program.segments import Segment
+
+CartesianPath = StraightLine | Arc
+STEP_PER_TOLERANCE = 10.0
+"""IK step along LIN/CIRC: this many position tolerances of travel (or orientation tolerances)."""
+MIN_INTERVALS = 20
+MAX_INTERVALS = 2000
+PTP_STEP = 0.05
+"""Joint step [rad] between samples of a PTP (its path is straight: samples only place blends)."""
+
+
+def cartesian_path(
+    seg: Segment, T_start: np.ndarray, T_goal: np.ndarray, task_space: str, index: int
+) -> CartesianPath:
+    """The LIN line or CIRC arc from ``T_start`` to ``T_goal`` (4, 4)."""
+    if seg.type == "lin":
+        return StraightLine(T_start, T_goal, task_space)
+    return Arc(
+        T_start,
+        T_goal,
+        interim=seg.interim,
+        center=seg.center,
+        task_space=task_space,
+        field=("segments", index),
+    )
+
+
+def sample_grid(seg: Segment, path: CartesianPath | None, dq: np.ndarray, cuts: list[float]):
+    """Increasing path parameters from 0 to 1 where the segment is sampled, ``cuts`` included."""
+    if path is None:
+        n = max(MIN_INTERVALS, int(np.ceil(np.abs(dq).max() / PTP_STEP)))
+    else:
+        n = max(
+            path.length / (STEP_PER_TOLERANCE * seg.position_tolerance),
+            path.angle / (STEP_PER_TOLERANCE * seg.orientation_tolerance),
+        )
+        n = int(np.clip(np.ceil(n), MIN_INTERVALS, MAX_INTERVALS))
+    regular = np.linspace(0.0, 1.0, n + 1)
+    cuts_a = np.asarray(cuts, dtype=float)
+    # Regular points closer than a third of the spacing to a cut go (the cut stays): two samples
+    # much closer than their neighbours would let IK noise bend the path spline between them.
+    if len(cuts_a):
+        near = np.min(np.abs(regular[:, None] - cuts_a[None, :]), axis=1) < 1.0 / (3 * n)
+        regular = regular[~near | (regular == 0.0) | (regular == 1.0)]
+    grid = np.unique(np.concatenate([regular, cuts_a]))
+    keep = np.concatenate([[True], np.diff(grid) > 1e-12])
+    return grid[keep]
+
+
+@dataclass
+class SegmentPath:
+    """One segment's geometry and joint samples.
+
+    Attributes:
+        index: Position in the request's ``segments``.
+        seg: The segment.
+        path: Line or arc (LIN/CIRC), None for PTP.
+        q_start: Joint positions at the start (dof,).
+        s: Path parameters of the samples (K,), from 0 to 1 (or less for a partial walk).
+        q: Joint positions at them (K, dof).
+        s_in: Where the tool leaves the incoming blend sphere (0 without).
+        s_out: Where it enters the outgoing blend sphere (1 without).
+        blend_out: Whether the segment blends into the next.
+        min_singular_value: Smallest singular value along the walk (LIN/CIRC).
+    """
+
+    index: int
+    seg: Segment
+    path: CartesianPath | None
+    q_start: np.ndarray
+    s: np.ndarray
+    q: np.ndarray
+    s_in: float = 0.0
+    s_out: float = 1.0
+    blend_out: bool = False
+    min_singular_value: float = float("nan")
+    _spline: CubicSpline | None = field(default=None, repr=False)
+
+    @property
+    def q_goal(self) -> np.ndarray:
+        return self.q[-1]
+
+    def joints(self, s: np.ndarray) -> np.ndarray:
+        """Joint positions (N, dof) at ``s`` (N,): the joint line (PTP) or a C2 spline through the
+        walk's samples (LIN/CIRC; exact at the samples)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        if self.path is None:
+            return self.q[0] + s[:, None] * (self.q[-1] - self.q[0])
+        if self._spline is None:
+            self._spline = CubicSpline(self.s, self.q)
+        return self._spline(s)
+
+    def poses(self, robot: Kinematics, s: np.ndarray) -> np.ndarray:
+        """Tool poses (N, 4, 4) at ``s``: the path's (LIN/CIRC) or FK of the joint line (PTP)."""
+        if self.path is not None:
+            return self.path.poses(s)
+        return robot.fk_many(self.joints(s))
+
+    def piece(self) -> tuple[np.ndarray, np.ndarray]:
+        """The samples of the segment's own part, ``s_in <= s <= s_out``: (s, q)."""
+        keep = (self.s >= self.s_in) & (self.s <= self.s_out)
+        return self.s[keep], self.q[keep]

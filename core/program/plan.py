@@ -1,0 +1,180 @@
+"""A motion program as one trajectory: validate -> geometry (``build``) -> timing -> samples.
+
+The joint path is cut into chunks at every stop (an unblended segment goal); blended corners stay
+inside a chunk. Each chunk is timed as one rest-to-rest motion (``core.program.timing``), so the
+program stops exactly at unblended goals and nowhere else. The returned points are a regular grid
+(``sample_period`` or ``samples``) plus every segment boundary and blend window boundary, so a
+controller reaches each goal exactly. LIN/CIRC deviation from their line/arc is measured outside
+the blend windows along the returned trajectory (``core.program.report``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import InputError, TooLarge
+from core.program.build import Geometry, build
+from core.program.report import ProgramResult, SegmentResult, report
+from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
+from core.program.timing import ChunkInput, ChunkTiming, time_chunk
+from core.program.validate import layout
+from core.trajectory import MAX_POINTS, Trajectory, sample_times
+
+_MIN_GAP = 1e-6
+"""Regular sample times closer than this [s] to a boundary time are dropped (the boundary stays)."""
+
+
+@dataclass
+class _Piece:
+    owner: int
+    blend: bool
+    q: np.ndarray
+    T: np.ndarray
+    scales: tuple[float, float]
+    tool_speed: tuple[float, float]
+    tool_acc: tuple[float, float]
+    times: tuple[float, float] = (0.0, 0.0)
+
+
+def _pieces(task: ProgramTask, geo: Geometry) -> list[list[_Piece]]:
+    """The geometry as chunks (lists of pieces between stops)."""
+    robot = task.robot
+    chunks: list[list[_Piece]] = [[]]
+    for sp in geo.segments:
+        seg = sp.seg
+        s, q = sp.piece()
+        T = sp.poses(robot, s)
+        cart = seg.cartesian
+        acc = (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if cart else (np.inf, np.inf)
+        piece = _Piece(
+            sp.index,
+            False,
+            q,
+            T,
+            (seg.velocity_scale, seg.acceleration_scale),
+            seg.tool_speeds(),
+            acc,
+        )
+        chunks[-1].append(piece)
+        blend = geo.blends.get(sp.index)
+        if blend is None:
+            chunks.append([])
+            continue
+        nxt = next(p for p in geo.segments if p.index > sp.index).seg
+        chunks[-1].append(
+            _Piece(
+                sp.index,
+                True,
+                blend.q,
+                blend.T,
+                (
+                    min(seg.velocity_scale, nxt.velocity_scale),
+                    min(seg.acceleration_scale, nxt.acceleration_scale),
+                ),
+                tuple(np.minimum(seg.tool_speeds(), nxt.tool_speeds())),
+                (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if blend.cartesian else acc,
+            )
+        )
+    return [c for c in chunks if c]
+
+
+def _time(task: ProgramTask, chunk: list[_Piece]) -> ChunkTiming | None:
+    """Time one chunk; record each piece's (start, end) time in the chunk. None if it is still."""
+    robot = task.robot
+    qs, Ts, starts = [], [], []
+    rows: dict[str, list[np.ndarray]] = {"v": [], "a": [], "ts": [], "ta": []}
+    for k, p in enumerate(chunk):
+        first = 0 if k == 0 else 1  # pieces share their junction sample
+        starts.append(sum(len(x) for x in qs) - (0 if k == 0 else 1))
+        n = len(p.q) - first
+        qs.append(p.q[first:])
+        Ts.append(p.T[first:])
+        rows["v"].append(np.tile(robot.velocity_limits * p.scales[0], (n, 1)))
+        rows["a"].append(np.tile(robot.acceleration_limits * p.scales[1], (n, 1)))
+        rows["ts"].append(np.tile(p.tool_speed, (n, 1)))
+        rows["ta"].append(np.tile(p.tool_acc, (n, 1)))
+    q = np.concatenate(qs)
+    ends = [*starts[1:], len(q) - 1]
+    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    if step.sum() < 1e-12:
+        return None
+    keep = np.concatenate([[True], step > 1e-13])
+    index = np.cumsum(keep) - 1  # old sample -> kept sample
+    c = ChunkInput(
+        q[keep],
+        np.concatenate(Ts)[keep],
+        np.concatenate(rows["v"])[keep],
+        np.concatenate(rows["a"])[keep],
+        np.concatenate(rows["ts"])[keep],
+        np.concatenate(rows["ta"])[keep],
+    )
+    timing = time_chunk(c)
+    for p, a, b in zip(chunk, starts, ends, strict=True):
+        p.times = (float(timing.knot_times[index[a]]), float(timing.knot_times[index[b]]))
+    return timing
+
+
+def plan_program(task: ProgramTask) -> ProgramResult:
+    """Plan ``task`` (see the module docstring)."""
+    lay = layout(task)
+    geo = build(task, lay)
+    robot = task.robot
+    chunks = _pieces(task, geo)
+    timings: list[tuple[float, ChunkTiming, list[_Piece]]] = []
+    offset = 0.0
+    for chunk in chunks:
+        task.deadline.check("timing the program")
+        timing = _time(task, chunk)
+        if timing is None:
+            continue
+        for p in chunk:
+            p.times = (p.times[0] + offset, p.times[1] + offset)
+        timings.append((offset, timing, chunk))
+        offset += timing.duration
+    if not timings:
+        raise InputError("the program does not move the arm", field=("segments",))
+    duration = offset
+    regular = sample_times(duration, task.sample_period, task.samples, MAX_POINTS)
+    marks = np.unique([t for _, _, ch in timings for p in ch for t in p.times])
+    near = np.min(np.abs(regular[:, None] - marks[None, :]), axis=1) < _MIN_GAP
+    times = np.union1d(regular[~near], marks)
+    if len(times) > MAX_POINTS:
+        raise TooLarge(
+            f"the program needs {len(times)} points, over the limit of {MAX_POINTS}",
+            field=("sample_period",),
+        )
+    q, qd, qdd = _sample(timings, times)
+    traj = Trajectory(times, q, qd, qdd, robot.joint_names)
+    spans = {(p.owner, p.blend): p.times for _, _, ch in timings for p in ch}
+
+    def sampler(t: np.ndarray) -> np.ndarray:
+        return _sample(timings, t)[0]
+
+    result = report(task, lay, geo, spans, traj, sampler)
+    # How much the dense limit check stretched the time-optimal timing (1.0: not at all), and
+    # how many rest-to-rest stretches the program has (stops + 1).
+    result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)
+    result.diagnostics["stops"] = len(timings) - 1
+    return result
+
+
+def _sample(
+    timings: list[tuple[float, ChunkTiming, list[_Piece]]], times: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, velocities, accelerations at ``times``, exact (and at rest) at chunk ends."""
+    starts = np.array([o for o, _, _ in timings])
+    which = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(timings) - 1)
+    dof = timings[0][2][0].q.shape[1]
+    q, qd, qdd = (np.empty((len(times), dof)) for _ in range(3))
+    for k, (offset, timing, chunk) in enumerate(timings):
+        sel = which == k
+        q[sel], qd[sel], qdd[sel] = timing.sample(times[sel] - offset)
+        for t, value in ((offset, chunk[0].q[0]), (offset + timing.duration, chunk[-1].q[-1])):
+            hit = np.flatnonzero(np.abs(times - t) < 1e-12)
+            q[hit], qd[hit], qdd[hit] = value, 0.0, 0.0
+    return q, qd, qdd
+
+
+__all__ = ["ProgramResult", "SegmentResult", "plan_program"]

@@ -1,0 +1,148 @@
+"""The program's answer: per-segment times and diagnostics, deviation measured densely.
+
+LIN/CIRC segments are measured against their line/arc outside the blend windows, along the
+returned trajectory with ``CHECKS`` checks between consecutive returned points (FK of the
+trajectory's own q(t), not of the IK samples).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from core.errors import PlanningError
+from core.program.build import Geometry
+from core.program.segments import ProgramTask
+from core.program.validate import Layout
+from core.trajectory import Trajectory
+
+CHECKS = 10
+"""Deviation checks between consecutive returned points (as for single lines)."""
+GOAL_BRANCH_WARNING = 1e-3
+"""A LIN/CIRC ending farther than this [rad] from its goal.positions gets a warning."""
+
+
+@dataclass(frozen=True)
+class SegmentResult:
+    """One segment's part of the program.
+
+    Attributes:
+        index: Position in the request's ``segments``.
+        type: ``ptp``, ``lin`` or ``circ``.
+        start_time: When the segment's own part begins [s] (after the incoming blend).
+        end_time: When it ends [s] (at its goal, or where the outgoing blend begins).
+        blend_out: (start, end) [s] of the blend into the next segment, or None.
+        diagnostics: Per-segment facts (deviation, singular values, skipped, ...).
+    """
+
+    index: int
+    type: str
+    start_time: float
+    end_time: float
+    blend_out: tuple[float, float] | None
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ProgramResult:
+    """The timed program.
+
+    Attributes:
+        trajectory: The returned points.
+        segments: One entry per requested segment (skipped ones included), in order.
+        warnings: Skipped segments, ignored radii, partial plans, deviations over tolerance.
+        fraction: Share of the segments planned (1.0 unless partial).
+        failure: What stopped a partial plan, else None.
+        diagnostics: Program-wide facts (max deviations, stretch, chunk count).
+    """
+
+    trajectory: Trajectory
+    segments: tuple[SegmentResult, ...]
+    warnings: tuple[str, ...]
+    fraction: float
+    failure: PlanningError | None
+    diagnostics: dict[str, Any]
+
+
+def _dense(times: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    """``CHECKS`` times per interval of the returned ``times`` within [t0, t1]."""
+    inside = times[(times >= t0 - 1e-12) & (times <= t1 + 1e-12)]
+    grid = np.unique(np.concatenate([[t0], inside, [t1]]))
+    frac = np.arange(CHECKS) / CHECKS
+    return np.concatenate([(grid[:-1, None] + np.diff(grid)[:, None] * frac).ravel(), [t1]])
+
+
+def report(
+    task: ProgramTask,
+    lay: Layout,
+    geo: Geometry,
+    spans: dict[tuple[int, bool], tuple[float, float]],
+    traj: Trajectory,
+    sampler: Callable[[np.ndarray], np.ndarray],
+) -> ProgramResult:
+    """Assemble the ``ProgramResult`` (``spans``: (segment, is_blend) -> (start, end) [s])."""
+    robot = task.robot
+    warnings = list(lay.warnings)
+    planned = {sp.index: sp for sp in geo.segments}
+    last_planned = max(planned)
+    results: list[SegmentResult] = []
+    worst_p, worst_o, sigma = 0.0, 0.0, np.inf
+    t_prev = 0.0
+    for i, seg in enumerate(task.segments):
+        if i > last_planned:
+            break
+        if i not in planned:
+            results.append(SegmentResult(i, seg.type, t_prev, t_prev, None, {"skipped": True}))
+            continue
+        sp = planned[i]
+        t0, t1 = spans[(i, False)]
+        blend = spans.get((i, True))
+        diag: dict[str, Any] = {
+            "skipped": False,
+            "duration": t1 - t0 + (blend[1] - blend[0] if blend else 0.0),
+        }
+        if sp.path is not None and t1 > t0:
+            dense = _dense(traj.times, t0, t1)
+            dev = sp.path.deviation(
+                robot.fk_many(sampler(dense)), seg.position_tolerance, seg.orientation_tolerance
+            )
+            dp, do = float(dev.position.max()), float(dev.orientation.max())
+            diag.update(
+                max_position_deviation=dp,
+                max_orientation_deviation=do,
+                min_singular_value=sp.min_singular_value,
+                length=sp.path.length,
+            )
+            worst_p, worst_o = max(worst_p, dp), max(worst_o, do)
+            sigma = min(sigma, sp.min_singular_value)
+            if dp > seg.position_tolerance or do > seg.orientation_tolerance:
+                warnings.append(
+                    f"segment {i} strays up to {dp:.3g} m / {do:.3g} rad from its path between "
+                    "returned points, over its tolerance"
+                )
+        if sp.path is not None and seg.goal_positions is not None and sp.s[-1] == 1.0:
+            gap = float(np.abs(sp.q_goal - seg.goal_positions).max())
+            if gap > GOAL_BRANCH_WARNING:
+                warnings.append(
+                    f"segment {i} ends at its goal pose in another joint configuration than "
+                    f"goal.positions (up to {gap:.3g} rad apart): the path leads there without a "
+                    "branch flip"
+                )
+        results.append(SegmentResult(i, seg.type, t0, t1, blend, diag))
+        t_prev = blend[1] if blend else t1
+    fraction = 1.0
+    if geo.failure is not None:
+        n = len(task.segments)
+        fraction = (geo.failed_segment + min(max(geo.failed_s, 0.0), 1.0)) / n
+        if geo.failed_s >= 1.0:
+            fraction = (geo.failed_segment + 1.0) / n
+        warnings.insert(0, f"planned {fraction:.1%} of the program: {geo.failure.detail}")
+    diagnostics = {
+        "max_position_deviation": worst_p,
+        "max_orientation_deviation": worst_o,
+        "min_singular_value": float(sigma) if np.isfinite(sigma) else None,
+    }
+    return ProgramResult(traj, tuple(results), tuple(warnings), fraction, geo.failure, diagnostics)

@@ -1,0 +1,99 @@
+"""The segments of a motion program (PTP, LIN, CIRC) and the program task, as frozen inputs.
+
+Every segment starts where the previous one ended. Units: meters, radians, seconds; poses are
+``T_base_tool`` (4, 4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from core.budget import NO_DEADLINE, Deadline
+from core.kinematics import Kinematics
+
+SegmentType = Literal["ptp", "lin", "circ"]
+MAX_SEGMENTS = 100
+DEFAULT_MAX_LINEAR_SPEED = 0.25
+"""Tool speed [m/s] of a LIN/CIRC segment without ``max_linear_speed`` (as a single line)."""
+DEFAULT_MAX_ANGULAR_SPEED = 1.0
+"""Tool angular speed [rad/s] of a LIN/CIRC segment without ``max_angular_speed``."""
+LINEAR_ACCELERATION = 1.0
+"""Tool acceleration [m/s^2] along LIN/CIRC segments (as a single line)."""
+ANGULAR_ACCELERATION = 2.0
+"""Tool angular acceleration [rad/s^2] along LIN/CIRC segments."""
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One move of a program.
+
+    Attributes:
+        type: ``"ptp"`` (joint space), ``"lin"`` (straight line) or ``"circ"`` (circle arc).
+        goal_pose: Goal tool pose (4, 4), or None when ``goal_positions`` is given.
+        goal_positions: Goal joint positions (dof,) [rad or m]; for lin/circ their FK is the goal pose.
+        configuration: PTP to a pose: the configuration label the IK solution must carry.
+        interim: CIRC: a point (3,) [m] on the arc.
+        center: CIRC: the circle's centre (3,) [m].
+        blend_radius: Radius [m] of the blend sphere about this segment's goal position (0: stop).
+        velocity_scale: Share (0, 1] of the joint velocity limits this segment may use.
+        acceleration_scale: Share (0, 1] of the joint acceleration limits.
+        max_linear_speed: LIN/CIRC tool speed limit [m/s] (None: ``DEFAULT_MAX_LINEAR_SPEED``).
+        max_angular_speed: LIN/CIRC tool angular speed limit [rad/s].
+        position_tolerance: LIN/CIRC allowed deviation from the path [m].
+        orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
+    """
+
+    type: SegmentType
+    goal_pose: np.ndarray | None = None
+    goal_positions: np.ndarray | None = None
+    configuration: str | None = None
+    interim: np.ndarray | None = None
+    center: np.ndarray | None = None
+    blend_radius: float = 0.0
+    velocity_scale: float = 1.0
+    acceleration_scale: float = 1.0
+    max_linear_speed: float | None = None
+    max_angular_speed: float | None = None
+    position_tolerance: float = 1e-3
+    orientation_tolerance: float = 1e-2
+
+    @property
+    def cartesian(self) -> bool:
+        return self.type != "ptp"
+
+    def tool_speeds(self) -> tuple[float, float]:
+        """Tool speed limits [m/s], [rad/s] of a LIN/CIRC segment (inf for PTP)."""
+        if not self.cartesian:
+            return np.inf, np.inf
+        if self.max_linear_speed is None and self.max_angular_speed is None:
+            return DEFAULT_MAX_LINEAR_SPEED, DEFAULT_MAX_ANGULAR_SPEED
+        lin = np.inf if self.max_linear_speed is None else self.max_linear_speed
+        ang = np.inf if self.max_angular_speed is None else self.max_angular_speed
+        return lin, ang
+
+
+@dataclass(frozen=True)
+class ProgramTask:
+    """A motion program: segments from ``q_start``, timed as one trajectory.
+
+    Attributes:
+        robot: Kinematics of the arm.
+        q_start: Start joint positions (dof,).
+        segments: The moves, in order (1 to ``MAX_SEGMENTS``).
+        sample_period: Spacing of returned points [s], or None.
+        samples: Number of regularly spaced returned points (segment goals and blend window
+            boundaries are added to them), or None.
+        allow_partial: Return the program up to a failing segment instead of failing.
+        deadline: Wall-time budget.
+    """
+
+    robot: Kinematics
+    q_start: np.ndarray
+    segments: tuple[Segment, ...]
+    sample_period: float | None = None
+    samples: int | None = None
+    allow_partial: bool = False
+    deadline: Deadline = NO_DEADLINE

@@ -1,0 +1,121 @@
+"""Checks of a program before planning: counts, scales, blend radii against segment lengths.
+
+Every tool position at a segment end is known before any IK runs (a goal pose, or FK of goal
+joints), so blend radii are checked first: a radius over half of either neighbour's length, or two
+spheres on one segment that overlap (their radii add up to more than the distance between its
+ends), is ``InputError`` at that segment's ``blend_radius``. Zero-length segments are skipped
+(with a warning) and do not count as neighbours.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import InputError
+from core.path.line import pose_error
+from core.program.geometry.paths import cartesian_path
+from core.program.segments import MAX_SEGMENTS, ProgramTask
+
+ZERO_LENGTH = 1e-9
+"""A segment moving the tool less than this [m] and [rad] (PTP: joints, [rad]) is skipped."""
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What the checks found.
+
+    Attributes:
+        goals: Goal tool pose of each segment (4, 4) (PTP to joints: their FK).
+        lengths: Tool path length [m] of each segment (PTP: the chord).
+        active: Indices of the segments that move (the others are skipped).
+        blends: ``blends[i]``: blend radius [m] out of segment i (0 when it stops there).
+        warnings: Skipped segments and ignored radii.
+    """
+
+    goals: tuple[np.ndarray, ...]
+    lengths: tuple[float, ...]
+    active: tuple[int, ...]
+    blends: tuple[float, ...]
+    warnings: tuple[str, ...]
+
+
+def layout(task: ProgramTask) -> Layout:
+    """Check ``task`` (see the module docstring) and lay its segments out."""
+    robot, segs = task.robot, task.segments
+    if not 1 <= len(segs) <= MAX_SEGMENTS:
+        raise InputError(f"give 1 to {MAX_SEGMENTS} segments", field=("segments",))
+    if segs[-1].blend_radius > 0.0:
+        raise InputError(
+            "the last segment cannot blend (there is nothing to blend into)",
+            field=("segments", len(segs) - 1, "blend_radius"),
+        )
+    T_prev = robot.fk(task.q_start)
+    q_prev: np.ndarray | None = np.asarray(task.q_start, dtype=float)
+    goals, lengths, active, warnings = [], [], [], []
+    for i, seg in enumerate(segs):
+        for name in ("velocity_scale", "acceleration_scale"):
+            if not 0.0 < getattr(seg, name) <= 1.0:
+                raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
+        if seg.goal_pose is not None:
+            T_goal = np.asarray(seg.goal_pose, dtype=float)
+        elif seg.goal_positions is not None:
+            T_goal = robot.fk(seg.goal_positions)
+        else:
+            raise InputError("give goal.pose or goal.positions", field=("segments", i, "goal"))
+        dp, dr = pose_error(T_prev, T_goal)
+        if seg.type == "circ":
+            if dp < ZERO_LENGTH and dr < ZERO_LENGTH:
+                length = 0.0
+            else:
+                length = cartesian_path(seg, T_prev, T_goal, robot.task_space, i).length
+        else:
+            length = dp
+        moves = dp >= ZERO_LENGTH or dr >= ZERO_LENGTH
+        if seg.type == "ptp" and seg.goal_positions is not None:
+            # Joints known so far (only PTPs to joints since the start): compare them too.
+            if q_prev is not None:
+                moves = bool(np.abs(np.asarray(seg.goal_positions) - q_prev).max() >= ZERO_LENGTH)
+            else:
+                moves = True  # another branch may reach the same pose: not skipped
+            q_prev = np.asarray(seg.goal_positions, dtype=float)
+        else:
+            q_prev = None
+        if moves:
+            active.append(i)
+        else:
+            warnings.append(f"segment {i} has zero length: skipped")
+        goals.append(T_goal)
+        lengths.append(float(length))
+        T_prev = T_goal
+    if not active:
+        raise InputError(
+            "every segment has zero length: the program does not move the arm",
+            field=("segments",),
+        )
+    blends = [0.0] * len(segs)
+    for a, b in itertools.pairwise(active):
+        r = segs[a].blend_radius
+        if r <= 0.0:
+            continue
+        half = 0.5 * min(lengths[a], lengths[b])
+        if r > half:
+            raise InputError(
+                f"blend_radius {r:.4g} m exceeds half of a neighbouring segment's length "
+                f"({half:.4g} m)",
+                field=("segments", a, "blend_radius"),
+            )
+        blends[a] = r
+    for prev, b in itertools.pairwise(active):
+        chord = float(np.linalg.norm(goals[b][:3, 3] - goals[prev][:3, 3]))
+        if blends[prev] + blends[b] > chord + 1e-12:
+            raise InputError(
+                f"the blend spheres at both ends of segment {b} overlap",
+                field=("segments", b, "blend_radius"),
+            )
+    for i, seg in enumerate(segs):
+        if seg.blend_radius > 0.0 and blends[i] == 0.0 and i != len(segs) - 1:
+            warnings.append(f"segment {i}: blend_radius ignored (no moving segment to blend with)")
+    return Layout(tuple(goals), tuple(lengths), tuple(active), tuple(blends), tuple(warnings))

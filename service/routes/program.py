@@ -1,0 +1,185 @@
+"""POST /v1/trajectories/program: PTP, LIN and CIRC segments in one trajectory, blended.
+
+Thin route: schema -> ``ProgramTask`` -> ``core.program.plan.plan_program`` -> response. Plain
+``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from fastapi import APIRouter, Request
+from starlette.responses import Response
+
+from core.budget import Deadline
+from core.errors import InputError, JointLimit, PlanningError, TooLarge
+from core.kinematics import Kinematics
+from core.program.plan import ProgramResult, plan_program
+from core.program.segments import ProgramTask, Segment
+from robots import registry
+from service.encoding import (
+    base_diagnostics,
+    check_finite,
+    json_response,
+    ros_durations,
+    trajectory_body,
+)
+from service.schemas.common import TIME_FORMAT_QUERY, TimeFormat, trajectory_responses
+from service.schemas.program import CircSegment, ProgramRequest, ProgramResponse, PtpSegment
+
+router = APIRouter(prefix="/v1/trajectories", tags=["program"])
+
+
+def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) -> np.ndarray:
+    q = np.asarray(values, dtype=float)
+    if q.shape != (robot.dof,):
+        raise InputError(f"needs {robot.dof} values, one per joint of the robot", field=loc)
+    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
+    bad = np.flatnonzero((q < lo) | (q > hi))
+    if bad.size:
+        j = int(bad[0])
+        raise JointLimit(
+            f"value {j} is outside the position limits of joint '{robot.joint_names[j]}'",
+            field=(*loc, j),
+            joint=j,
+        )
+    return q
+
+
+def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadline) -> ProgramTask:
+    """The core task of a request: joint arrays checked against the robot."""
+    segments = []
+    for i, s in enumerate(body.segments):
+        loc = ("segments", i, "goal", "positions")
+        goal_q = None if s.goal.positions is None else _joints(robot, s.goal.positions, loc)
+        goal_T = None if s.goal.pose is None else s.goal.pose.as_matrix()
+        common: dict[str, Any] = {
+            "goal_pose": goal_T,
+            "goal_positions": goal_q,
+            "blend_radius": s.blend_radius,
+            "velocity_scale": s.velocity_scale,
+            "acceleration_scale": s.acceleration_scale,
+        }
+        if isinstance(s, PtpSegment):
+            segments.append(Segment("ptp", configuration=s.goal.configuration, **common))
+            continue
+        extra: dict[str, Any] = {}
+        if isinstance(s, CircSegment):
+            extra = {
+                "interim": None if s.interim is None else np.array(s.interim),
+                "center": None if s.center is None else np.array(s.center),
+            }
+        segments.append(
+            Segment(
+                s.type,
+                max_linear_speed=s.max_linear_speed,
+                max_angular_speed=s.max_angular_speed,
+                position_tolerance=s.tolerance.position,
+                orientation_tolerance=s.tolerance.orientation,
+                **common,
+                **extra,
+            )
+        )
+    return ProgramTask(
+        robot=robot,
+        q_start=_joints(robot, body.start.positions, ("start", "positions")),
+        segments=tuple(segments),
+        sample_period=body.sample_period,
+        samples=body.samples,
+        allow_partial=body.allow_partial,
+        deadline=deadline,
+    )
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def result_body(
+    result: ProgramResult, compute_time_ms: float, time_format: str = "float"
+) -> dict[str, Any]:
+    """The response document: trajectory, diagnostics, ``segments``."""
+    traj = result.trajectory
+    diag = base_diagnostics(traj, "program", compute_time_ms)
+    diag["warnings"] = list(result.warnings)
+    diag["fraction"] = result.fraction
+    diag.update({k: _finite(v) for k, v in result.diagnostics.items()})
+    if result.failure is not None:
+        err: PlanningError = result.failure
+        diag["failure"] = {
+            "code": err.code,
+            "title": err.title,
+            "detail": err.detail,
+            "segment": err.extra.get("segment"),
+            "s": None if err.s is None else round(float(err.s), 6),
+        }
+
+    def stamp(t: float) -> Any:
+        return ros_durations(np.array([t]))[0] if time_format == "ros" else t
+
+    segments = [
+        {
+            "index": s.index,
+            "type": s.type,
+            "start_time": stamp(s.start_time),
+            "end_time": stamp(s.end_time),
+            **(
+                {
+                    "blend_out": {
+                        "start_time": stamp(s.blend_out[0]),
+                        "end_time": stamp(s.blend_out[1]),
+                    }
+                }
+                if s.blend_out
+                else {}
+            ),
+            "diagnostics": {k: _finite(v) for k, v in s.diagnostics.items()},
+        }
+        for s in result.segments
+    ]
+    return trajectory_body(traj, diag, time_format, segments=segments)
+
+
+@router.post(
+    "/program",
+    responses=trajectory_responses(ProgramResponse),
+    summary="Motion program: PTP, LIN and CIRC segments as one trajectory, blended at corners",
+    description=(
+        "One trajectory from `start` through every segment's goal in order (at most 100 segments). "
+        "PTP moves in joint space; LIN on the tool's straight line; CIRC on the circle arc through "
+        "`interim` or about `center`. With `blend_radius` r > 0 the motion leaves a segment where "
+        "the tool enters the sphere of radius r about its goal and joins the next where it leaves "
+        "it, without stopping: q, q' and q'' are continuous everywhere and the joint velocity and "
+        "acceleration limits (times each segment's scales) hold. Without a blend the robot stops "
+        "at the goal. Every segment goal and blend window boundary is a returned point. A failing "
+        "segment is 422 with `code`, `segment` and `s`; with `allow_partial` 200 with the program "
+        "up to it."
+    ),
+)
+def program_trajectory(
+    body: ProgramRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
+) -> Response:
+    settings = request.app.state.settings
+    deadline = Deadline(settings.time_budget_s)
+    robot = registry.resolve(body.robot)
+    task = task_from_request(body, robot, deadline)
+    if body.samples is not None and body.samples > settings.max_points:
+        raise TooLarge(
+            f"samples exceeds the limit of {settings.max_points} points", field=("samples",)
+        )
+    started = time.perf_counter()
+    result = plan_program(task)
+    elapsed_ms = (time.perf_counter() - started) * 1e3
+    check_finite(result.trajectory)
+    if len(result.trajectory.times) > settings.max_points:
+        raise TooLarge(
+            f"the program has {len(result.trajectory.times)} points, over the limit of "
+            f"{settings.max_points}; give a larger sample_period",
+            field=("sample_period",),
+        )
+    return json_response(result_body(result, elapsed_ms, time_format))

@@ -1,0 +1,235 @@
+"""Requests and responses of ``POST /v1/trajectories/program`` (motion programs, API.md).
+
+A program is a start configuration and 1 to 100 segments (``ptp``, ``lin``, ``circ``, told apart
+by ``type``), each from where the last ended. Lengths that depend on the robot (joint arrays) are
+checked in ``service/routes/program.py``; blend radii against segment lengths in the core.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from core.program.segments import MAX_SEGMENTS
+from service.schemas.cartesian import MAX_ANGULAR_SPEED, MAX_LINEAR_SPEED, Tolerance
+from service.schemas.common import (
+    JointPositions,
+    Pose,
+    Position,
+    RobotRef,
+    RosDuration,
+    StrictModel,
+    TrajectoryResponse,
+)
+
+MAX_BLEND_RADIUS = 10.0
+"""Largest ``blend_radius`` [m] accepted (it must also be at most half of either neighbour)."""
+
+Point3 = Annotated[
+    list[Position],
+    Field(min_length=3, max_length=3, description="A point [x, y, z] in [m] in the base frame."),
+]
+Scale = Annotated[float, Field(gt=0.0, le=1.0)]
+BlendRadius = Annotated[
+    float,
+    Field(
+        ge=0.0,
+        le=MAX_BLEND_RADIUS,
+        description="Radius [m] of the blend sphere about this segment's goal position, 0 to 10 "
+        "(default 0: stop at the goal). At most half of either neighbouring segment's length, "
+        "spheres must not overlap; the last segment has none.",
+    ),
+]
+
+
+class ProgramStart(StrictModel):
+    positions: JointPositions = Field(
+        description="Start joint positions [rad or m], one per joint, inside the limits."
+    )
+
+
+class PtpGoal(StrictModel):
+    """Goal joint positions, or a tool pose (IK nearest the current joints, with a label)."""
+
+    positions: JointPositions | None = Field(default=None, description="Goal joints [rad or m].")
+    pose: Pose | None = Field(default=None, description="Goal tool pose in the base frame.")
+    configuration: str | None = Field(
+        default=None,
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9_-]+$",
+        description="Configuration label the IK solution must carry (with pose; robots that "
+        "have labels).",
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> Any:
+        if (self.pose is None) == (self.positions is None):
+            raise ValueError("give exactly one of goal.pose or goal.positions")
+        if self.configuration is not None and self.pose is None:
+            raise ValueError("configuration goes with goal.pose")
+        return self
+
+
+class CartesianGoal(StrictModel):
+    """Goal tool pose, or goal joints whose forward kinematics is the pose."""
+
+    pose: Pose | None = Field(default=None, description="Goal tool pose in the base frame.")
+    positions: JointPositions | None = Field(
+        default=None, description="Goal joints [rad or m]: the goal pose is their FK."
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> Any:
+        if (self.pose is None) == (self.positions is None):
+            raise ValueError("give exactly one of goal.pose or goal.positions")
+        return self
+
+
+class _Common(StrictModel):
+    velocity_scale: Scale = Field(
+        default=1.0, description="Share (0, 1] of the joint velocity limits (default 1)."
+    )
+    acceleration_scale: Scale = Field(
+        default=1.0, description="Share (0, 1] of the joint acceleration limits (default 1)."
+    )
+    blend_radius: BlendRadius = 0.0
+
+
+class PtpSegment(_Common):
+    """Joint-space motion to the goal (a straight line in joint space)."""
+
+    type: Literal["ptp"] = Field(description="ptp: a straight line in joint space.")
+    goal: PtpGoal = Field(
+        description="Goal joint positions, or a tool pose (IK nearest the joints)."
+    )
+    profile: Literal["trapezoidal", "quintic"] = Field(
+        default="trapezoidal",
+        description="Accepted for compatibility: every PTP is timed with the program (time-optimal "
+        "under the scaled joint limits, C2 through a quintic spline).",
+    )
+
+
+class _CartesianSegment(_Common):
+    goal: CartesianGoal = Field(
+        description="Goal tool pose, or goal joints (their FK is the pose)."
+    )
+    max_linear_speed: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_LINEAR_SPEED,
+        description="Tool speed limit [m/s] (default 0.25).",
+    )
+    max_angular_speed: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_ANGULAR_SPEED,
+        description="Tool angular speed limit [rad/s] (default 1).",
+    )
+    method: Literal["sampled", "bounded_deviation"] = Field(
+        default="sampled",
+        description="Accepted; a program plans its lines and arcs by sampled IK (every sample "
+        "on the path, deviation measured between the returned points).",
+    )
+    tolerance: Tolerance = Field(
+        default_factory=Tolerance,
+        description="Position [m] and orientation [rad] tolerance outside the blend spheres.",
+    )
+
+
+class LinSegment(_CartesianSegment):
+    """The tool's straight line to the goal (orientation by slerp)."""
+
+    type: Literal["lin"] = Field(
+        description="lin: the tool's straight line (orientation by slerp)."
+    )
+
+
+class CircSegment(_CartesianSegment):
+    """The tool point on a circle arc to the goal, through ``interim`` or about ``center``."""
+
+    type: Literal["circ"] = Field(description="circ: the tool point on a circle arc.")
+    interim: Point3 | None = Field(
+        default=None,
+        description="A point [m] the arc passes through (not collinear with its ends).",
+    )
+    center: Point3 | None = Field(
+        default=None,
+        description="The circle's centre [m]: equidistant from start and goal within 1e-4 m; the "
+        "shorter arc.",
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> Any:
+        if (self.interim is None) == (self.center is None):
+            raise ValueError("give exactly one of interim or center")
+        return self
+
+
+ProgramSegment = Annotated[PtpSegment | LinSegment | CircSegment, Field(discriminator="type")]
+
+
+class ProgramRequest(StrictModel):
+    """POST /v1/trajectories/program."""
+
+    robot: RobotRef
+    start: ProgramStart = Field(description="Start joint positions of the program.")
+    segments: list[ProgramSegment] = Field(
+        min_length=1,
+        max_length=MAX_SEGMENTS,
+        description=f"1 to {MAX_SEGMENTS} segments, each from where the last ended.",
+    )
+    sample_period: float | None = Field(
+        default=None,
+        gt=0,
+        le=1e5,
+        description="Spacing of the regular returned points [s] (default 0.01); segment goals and "
+        "blend window boundaries are added.",
+    )
+    samples: int | None = Field(
+        default=None,
+        ge=2,
+        le=100_000,
+        description="Number of regular returned points evenly spaced in time (boundaries added).",
+    )
+    allow_partial: bool = Field(
+        default=False,
+        description="On a failing segment: 200 with the program up to it (diagnostics.fraction "
+        "< 1, diagnostics.failure with segment) instead of 422.",
+    )
+
+    @model_validator(mode="after")
+    def _exclusive(self) -> Any:
+        if self.sample_period is not None and self.samples is not None:
+            raise ValueError("give sample_period or samples, not both")
+        return self
+
+
+class BlendWindow(BaseModel):
+    start_time: float | RosDuration = Field(description="When the blend begins [s].")
+    end_time: float | RosDuration = Field(description="When it ends [s] (the next segment begins).")
+
+
+class SegmentInfo(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+    index: int = Field(description="Position in the request's segments.")
+    type: str = Field(description="ptp, lin or circ.")
+    start_time: float | RosDuration = Field(
+        description="Start of the segment's own part [s] (a ROS Duration with ?time_format=ros)."
+    )
+    end_time: float | RosDuration = Field(
+        description="End of its own part [s] (its goal, or where its blend begins)."
+    )
+    blend_out: BlendWindow | None = Field(default=None, description="Blend into the next segment.")
+    diagnostics: dict[str, Any] = Field(description="Deviation, singular values, skipped.")
+
+
+class ProgramResponse(TrajectoryResponse):
+    """The trajectory plus per-segment times; diagnostics add fraction, max deviations."""
+
+    segments: list[SegmentInfo] = Field(
+        description="One entry per requested segment (skipped ones included, none after a "
+        "partial plan's failing segment): its time window and its blend window."
+    )
