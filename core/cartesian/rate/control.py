@@ -45,31 +45,34 @@ where the damping is active: a singularity or the workspace boundary) or ``NoCon
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
-    SINGULAR_REGION,
-    DlsQpSolver,
     RateLimits,
     build_dls_qp,
     check_solver,
     damping,
-    rate_bounds,
     solve_dls_qp,
 )
+from core.cartesian.rate.steps import (
+    TIME_SCALE_MARGIN,
+    first_limit,
+    pinv_step,
+    singular_values,
+    stuck,
+    svd,
+    time_scale,
+)
+from core.cartesian.rate.tick_qp import DlsQpSolver, ExtraRows
 from core.cartesian.task import CartesianTask
 from core.cartesian.validate import validated_line
 from core.errors import (
     InputError,
-    JointLimit,
-    JointRateLimit,
-    NoConvergence,
     PlanningError,
-    Singularity,
     TooLarge,
 )
 from core.geometry import so3
@@ -81,8 +84,6 @@ FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
 MAX_GAIN_PER_TICK = 0.5
 """Upper bound on ``K dt``."""
-PINV_SINGULAR_THRESHOLD = 1e-3
-"""``resolved_rate`` refuses to step below this smallest singular value (J^+ would amplify 1000x)."""
 GOAL_FRACTION = 0.1
 """The run ends once the pose error is within this share of the position and orientation tolerance."""
 SETTLE_TIME = 1.0
@@ -93,9 +94,6 @@ MAX_TICKS = 1_000_000
 """Most control ticks one run may simulate (bounds memory and time; ``TooLarge`` beyond)."""
 ACTIVE_TOLERANCE = 1e-6
 """[rad/s] A rate this close to its bound counts as an active limit."""
-TIME_SCALE_MARGIN = 0.95
-"""The path clock slows so the feedforward rates use at most this share of the velocity limits,
-leaving the rest to the feedback term."""
 _CHECK_EVERY = 256
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
@@ -153,30 +151,40 @@ class _Setpoint:
 
     def __init__(self, line: StraightLine, timing: Profile, dt: float, n: int):
         grid = np.arange(n + 2) * dt
-        self.s, self.sd, self.dt, self.end = timing(grid), timing(grid, 1), dt, n * dt
-        self.line, theta = line, line.angle
+        # Python floats: the per-tick interpolation is scalar arithmetic (same IEEE operations).
+        self.s, self.sd = timing(grid).tolist(), timing(grid, 1).tolist()
+        self.dt, self.end, self.last = dt, n * dt, n  # (len(self.s) - 2)
+        self.p0, self.delta_p, theta = line.p0, line.delta_p, line.angle
         K = so3.skew(line.rotvec / theta) if theta > 0.0 else np.zeros((3, 3))
         # R0 exp(s theta [k]) = R0 + sin(s theta) R0 [k] + (1 - cos(s theta)) R0 [k]^2.
-        self.theta, self.R0K, self.R0K2 = theta, line.R0 @ K, line.R0 @ K @ K
+        self.theta, self.R0, self.R0K, self.R0K2 = theta, line.R0, line.R0 @ K, line.R0 @ K @ K
         self.omega = line.R0 @ line.rotvec
 
     def __call__(self, tau: float) -> tuple[float, float, np.ndarray, np.ndarray]:
         """``(s, s' [1/s], p_d (3,), R_d (3, 3))`` at clock time ``tau`` [s] (held after the end)."""
         x = min(tau, self.end) / self.dt
-        i = min(int(x), len(self.s) - 2)
+        i = min(int(x), self.last)
         w = x - i
-        s = float((1.0 - w) * self.s[i] + w * self.s[i + 1])
-        sd = float((1.0 - w) * self.sd[i] + w * self.sd[i + 1])
+        s = (1.0 - w) * self.s[i] + w * self.s[i + 1]
+        sd = (1.0 - w) * self.sd[i] + w * self.sd[i + 1]
         a = s * self.theta
-        R_d = self.line.R0 + math.sin(a) * self.R0K + (1.0 - math.cos(a)) * self.R0K2
-        return s, sd, self.line.p0 + s * self.line.delta_p, R_d
+        R_d = self.R0 + math.sin(a) * self.R0K + (1.0 - math.cos(a)) * self.R0K2
+        return s, sd, self.p0 + s * self.delta_p, R_d
 
 
-def simulate(task: CartesianTask, method: str) -> RateRun:
+def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
     """Run the controller of ``method`` along the task's line (see the module docstring).
 
-    Planning failures end the run and are returned in ``failure``; malformed input
-    (``InputError``), a run over ``MAX_TICKS`` (``TooLarge``) and the deadline raise.
+    ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.qp.ExtraRows``:
+    obstacle avoidance); OSQP only, and not with ``resolved_rate``. Planning failures end the run
+    and are returned in ``failure``; malformed input (``InputError``), a run over ``MAX_TICKS``
+    (``TooLarge``) and the deadline raise.
+
+    The loop keeps per-tick work to what each tick needs: arrays preallocated for the whole run
+    and written in place (rate bounds, rates, next positions), scalar math for the path clock and
+    the damping, LAPACK's SVD without numpy's wrapper, one OSQP workspace updated in place, the
+    path-clock SVD product skipped where a norm bound already keeps it at 1, the active-bound
+    flags and the first pinned joint found from the stored arrays after the loop.
     """
     if method not in RATE_METHODS:
         raise InputError(f"method must be one of {', '.join(RATE_METHODS)}", field=("method",))
@@ -186,8 +194,11 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         raise InputError("control_period must be a finite number > 0 s", field=("control_period",))
     limits = RateLimits.of(robot)
     lo_q, hi_q, vmax = limits.position[:, 0], limits.position[:, 1], limits.velocity
-    q = np.array(task.q_start, dtype=float)
     solver = check_solver(task.solver) if dls else ""
+    if extra_rows is not None and not (dls and solver == "osqp"):
+        raise InputError(
+            "extra inequality rows need resolved_rate_dls with osqp", field=("method",)
+        )
     line = validated_line(task)
     timing = nominal_timing(task, line)
     nominal = max(1, math.ceil(timing.duration / period - 1e-9))
@@ -201,19 +212,29 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
     setpoint = _Setpoint(line, timing, dt, nominal)
     rows, pose_task = task_rows(robot.task_space), robot.task_space == "pose"
     p_rows = rows[rows < 3]
+    all_rows, all_p = len(rows) == 6, len(p_rows) == 3
     gain = min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)
     goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
-    qp = DlsQpSolver(robot.dof) if dls and solver == "osqp" else None
+    capacity = 0 if extra_rows is None else int(extra_rows.capacity)
+    qp = DlsQpSolver(robot.dof, extra_rows=capacity) if dls and solver == "osqp" else None
     floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
     unit_twist = np.concatenate([line.delta_p, setpoint.omega])[rows]  # per unit s' [1/s]
+    # |qd_ff|_inf <= |twist| max_i S_i / (S_i^2 + lam^2) / min v_max (with room for rounding)
+    twist_bound = math.sqrt(float(unit_twist @ unit_twist)) * (1.0 + 1e-6) / float(vmax.min())
 
     n, dof = total + 1, robot.dof
-    positions, rates, track = np.zeros((n, dof)), np.zeros((n, dof)), np.zeros((n, 2))
-    s_log, sigma, lam, scale = np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n)
-    its, times, active = np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n, dtype=bool)
-    fallbacks, failure, first_limit, tau = 0, None, None, 0.0
+    positions, rates = np.zeros((n, dof)), np.zeros((n, dof))
+    bounds = np.zeros((n if dls else 0, 2, dof))  # (lower, upper) rate bounds of each step
+    track_p, track_o = np.zeros(n), np.zeros(n)
+    s_log, sigma, lam_log, scale = np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n)
+    its, times = np.zeros(n, dtype=np.int64), np.zeros(n)
+    position_box, low_v = np.stack([lo_q, hi_q]), -vmax
+    fallbacks, failure, tau, no_rows = 0, None, 0.0, ()
     e_o = np.zeros(3)
+    positions[0] = task.q_start
+    q = positions[0]
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
+    clock = time.perf_counter
     for k in range(n):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
@@ -222,9 +243,10 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         e_p = p_d - T_now[:3, 3]
         if pose_task:
             e_o = so3.log(R_d @ T_now[:3, :3].T)
-        positions[k], s_log[k] = q, s
-        err_p, err_o = math.sqrt(e_p[p_rows] @ e_p[p_rows]), math.sqrt(e_o @ e_o)
-        track[k] = err_p, err_o
+        s_log[k] = s
+        err_p = math.sqrt(e_p @ e_p if all_p else e_p[p_rows] @ e_p[p_rows])
+        err_o = math.sqrt(e_o @ e_o)
+        track_p[k], track_o[k] = err_p, err_o
         at_end = tau >= setpoint.end - 0.5 * dt
         if at_end and err_p <= GOAL_FRACTION * goal_p and err_o <= GOAL_FRACTION * goal_o:
             n = k + 1
@@ -232,116 +254,86 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         if k == total:
             n = k + 1
             if not (at_end and err_p <= goal_p and err_o <= goal_o):
-                failure = _stuck(robot, line, q, sigma[k - 1], first_limit, at_end, s, dt * k)
+                first = first_limit(positions[1:n], lo_q, hi_q, s_log) if dls else None
+                failure = stuck(robot, line, q, sigma[k - 1], first, at_end, s, dt * k)
             break
-        J = J_now[rows]
+        J = J_now if all_rows else J_now[rows]
         twist = sd * unit_twist
-        feedback = gain * np.concatenate([e_p, e_o])[rows]
-        U, S, Vt = np.linalg.svd(J, full_matrices=False)
-        sigma[k] = S[-1]
+        error = np.concatenate((e_p, e_o))
+        feedback = gain * (error if all_rows else error[rows])
+        nxt = positions[k + 1]
         if dls:
-            lam[k] = damping(sigma[k], floor=floor)
-            scale[k] = _time_scale(U, S, Vt, twist, lam[k], vmax)
-            lower, upper = rate_bounds(q, limits, dt)
-            V = scale[k] * twist + feedback
-            step = (
-                qp.step(J, V, lam[k], lower, upper)
-                if qp is not None
-                else solve_dls_qp(build_dls_qp(J, V, lam[k], q, limits, dt), solver)
-            )
-            qd, its[k], times[k] = step.x, step.iterations, step.solve_time
-            fallbacks += step.fallback
-            active[k] = ((qd <= lower + ACTIVE_TOLERANCE) | (qd >= upper - ACTIVE_TOLERANCE)).any()
-            q_next = np.minimum(np.maximum(q + qd * dt, lo_q), hi_q)
-            pinned = (q_next <= lo_q) | (q_next >= hi_q)
-            if first_limit is None and pinned.any():
-                first_limit = (s, int(np.argmax(pinned)))
+            sigma[k] = sigma_min = singular_values(J)[-1]
+            lam_log[k] = lam = damping(sigma_min, floor=floor)
+            gains = 1.0 / sigma_min if sigma_min > 0.0 else math.inf
+            if lam > 0.0:
+                gains = min(gains, 0.5 / lam)
+            if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:
+                scale[k] = time_scale(*svd(J), twist, lam, vmax)
+            kappa = scale[k]
+            B = bounds[k]  # rate_bounds(q, limits, dt), written in place
+            np.subtract(position_box, q, out=B)
+            np.divide(B, dt, out=B)
+            np.maximum(B, low_v, out=B)
+            np.minimum(B, vmax, out=B)
+            V = kappa * twist + feedback
+            start = clock()
+            if qp is not None:
+                its[k], fell_back, _ = qp.solve(
+                    J,
+                    V,
+                    lam,
+                    B[0],
+                    B[1],
+                    rates[k],
+                    no_rows if extra_rows is None else extra_rows(q),
+                )
+                times[k] = clock() - start
+            else:
+                step = solve_dls_qp(build_dls_qp(J, V, lam, q, limits, dt), solver)
+                rates[k], its[k], times[k], fell_back = (
+                    step.x,
+                    step.iterations,
+                    step.solve_time,
+                    step.fallback,
+                )
+            fallbacks += fell_back
+            np.multiply(rates[k], dt, out=nxt)
+            np.add(q, nxt, out=nxt)
+            np.maximum(nxt, lo_q, out=nxt)
+            np.minimum(nxt, hi_q, out=nxt)
         else:
-            failure, qd = _pinv_step(robot, U, S, Vt, twist + feedback, s, q, dt, limits)
+            kappa = 1.0
+            U, S, Vt = svd(J)
+            sigma[k] = S[-1]
+            failure, qd = pinv_step(robot, U, S, Vt, twist + feedback, s, q, dt, limits)
             if failure is not None:
                 n = k + 1
                 break
-            q_next = q + qd * dt
-        rates[k], q, tau = qd, q_next, tau + scale[k] * dt
+            rates[k] = qd
+            np.multiply(qd, dt, out=nxt)
+            np.add(q, nxt, out=nxt)
+        q, tau = nxt, tau + kappa * dt
     steps = n - 1
+    active = np.zeros(steps, dtype=bool)
+    if dls:
+        R, B = rates[:steps], bounds[:steps]
+        near = (R <= B[:, 0] + ACTIVE_TOLERANCE) | (R >= B[:, 1] - ACTIVE_TOLERANCE)
+        active = near.any(axis=1)
     return RateRun(
         dt=dt,
         nominal_ticks=nominal,
         positions=positions[:n],
-        rates=np.vstack([rates[:steps], np.zeros((1, dof))]),
+        rates=rates[:n],
         s=s_log[:n],
         sigma=sigma[:steps],
-        damping=lam[:steps],
+        damping=lam_log[:steps],
         time_scale=scale[:steps],
-        active=active[:steps],
+        active=active,
         iterations=its[:steps],
         solve_time=times[:steps],
         fallbacks=int(fallbacks),
-        tracking_position=track[:n, 0],
-        tracking_orientation=track[:n, 1],
+        tracking_position=track_p[:n],
+        tracking_orientation=track_o[:n],
         failure=failure,
-    )
-
-
-def _time_scale(U, S, Vt, twist: np.ndarray, lam: float, vmax: np.ndarray) -> float:
-    """Path-clock rate in (0, 1] that keeps the DLS rates ``V diag(S / (S^2 + lam^2)) U^T twist``
-    of the feedforward twist within ``TIME_SCALE_MARGIN`` of the velocity limits (1 when they
-    already are); ``U, S, Vt`` is the thin SVD of the task Jacobian."""
-    qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
-    ratio = float(np.max(np.abs(qd) / vmax))
-    return 1.0 if ratio <= TIME_SCALE_MARGIN else TIME_SCALE_MARGIN / ratio
-
-
-def _pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
-    """The ``resolved_rate`` step ``J^+ V`` (``J^-1 V`` when square) from the thin SVD of ``J``:
-    ``(failure, qd)`` with exactly one of them set."""
-    sigma, vmax = float(S[-1]), limits.velocity
-    if sigma < PINV_SINGULAR_THRESHOLD:
-        detail = f"the Jacobian is singular (smallest singular value {sigma:.2e}) at s={s:.4f}"
-        return Singularity(detail, s=s, extra={"min_singular_value": sigma}), None
-    qd = Vt.T @ ((U.T @ V) / S)
-    fast = np.flatnonzero(over_speed(qd, vmax))
-    if fast.size:
-        j = int(fast[np.argmax(np.abs(qd[fast]) / vmax[fast])])
-        detail = (
-            f"joint {robot.joint_names[j]} would need {abs(qd[j]):.3g} rad/s (limit "
-            f"{vmax[j]:.3g}) at s={s:.4f}; the pseudo-inverse does not slow down (the DLS does)"
-        )
-        return JointRateLimit(detail, joint=j, s=s, extra={"rate": float(abs(qd[j]))}), None
-    q_next = q + qd * dt
-    out = np.flatnonzero(outside(q_next, limits.position))
-    if out.size:
-        j = int(out[0])
-        detail = f"joint {robot.joint_names[j]} reaches its limit at s={s:.4f}"
-        return JointLimit(detail, joint=j, s=s), None
-    return None, qd
-
-
-def _stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningError:
-    """Why a DLS run ended short of the goal: a pinned joint, the velocity limits (the path clock
-    did not reach the end), damping, or plain non-convergence."""
-    s_reached = float(line.deviation(robot.fk(q)[None]).s[0])
-    if first_limit is not None:
-        s_hit, j = first_limit
-        lo, hi = robot.position_limits[j]
-        if q[j] <= lo or q[j] >= hi:
-            detail = (
-                f"joint {robot.joint_names[j]} is held at its position limit (reached at "
-                f"s={s_hit:.4f}); the tool cannot follow the line past s={s_reached:.4f}"
-            )
-            return JointLimit(detail, joint=j, s=s_hit)
-    if not at_end:
-        detail = (
-            f"the joint velocity limits slowed the line so much that after {elapsed:.3f} s it was "
-            f"only at s={s:.4f}; ask for a longer duration or lower tool speeds"
-        )
-        return JointRateLimit(detail, s=s)
-    if sigma < SINGULAR_REGION:
-        detail = (
-            f"the arm is stuck at a singular configuration (smallest singular value {sigma:.2e}) "
-            f"at s={s_reached:.4f}: a singularity or the edge of the workspace"
-        )
-        return Singularity(detail, s=s_reached, extra={"min_singular_value": float(sigma)})
-    return NoConvergence(
-        f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
     )
