@@ -62,6 +62,7 @@ from core.cartesian.rate.steps import (
     TIME_SCALE_MARGIN,
     first_limit,
     pinv_step,
+    pose_error,
     singular_values,
     stuck,
     svd,
@@ -147,29 +148,35 @@ def nominal_timing(task: CartesianTask, line: StraightLine) -> Profile:
 
 
 class _Setpoint:
-    """Pose, twist and s on the line at path-clock time tau (s(t) tabulated per tick)."""
+    """Pose, twist and s on the line at path-clock time tau (s(t) tabulated per tick), in Python
+    floats: per tick this is scalar arithmetic, where numpy's per-call cost would dominate (the
+    same IEEE operations in the same order as the array expressions in the comments)."""
 
     def __init__(self, line: StraightLine, timing: Profile, dt: float, n: int):
         grid = np.arange(n + 2) * dt
-        # Python floats: the per-tick interpolation is scalar arithmetic (same IEEE operations).
         self.s, self.sd = timing(grid).tolist(), timing(grid, 1).tolist()
         self.dt, self.end, self.last = dt, n * dt, n  # (len(self.s) - 2)
-        self.p0, self.delta_p, theta = line.p0, line.delta_p, line.angle
+        self.p0, self.delta_p, theta = line.p0.tolist(), line.delta_p.tolist(), line.angle
         K = so3.skew(line.rotvec / theta) if theta > 0.0 else np.zeros((3, 3))
         # R0 exp(s theta [k]) = R0 + sin(s theta) R0 [k] + (1 - cos(s theta)) R0 [k]^2.
-        self.theta, self.R0, self.R0K, self.R0K2 = theta, line.R0, line.R0 @ K, line.R0 @ K @ K
+        R0K, R0K2 = line.R0 @ K, line.R0 @ K @ K
+        self.theta = theta
+        R = (line.R0.ravel().tolist(), R0K.ravel().tolist(), R0K2.ravel().tolist())
+        self.R = list(zip(*R, strict=True))
         self.omega = line.R0 @ line.rotvec
 
-    def __call__(self, tau: float) -> tuple[float, float, np.ndarray, np.ndarray]:
-        """``(s, s' [1/s], p_d (3,), R_d (3, 3))`` at clock time ``tau`` [s] (held after the end)."""
+    def __call__(self, tau: float) -> tuple[float, float, list[float], list[float]]:
+        """``(s, s' [1/s], p_d (3 floats), R_d (9 floats, row by row))`` at clock time ``tau``
+        [s] (held after the end)."""
         x = min(tau, self.end) / self.dt
         i = min(int(x), self.last)
         w = x - i
         s = (1.0 - w) * self.s[i] + w * self.s[i + 1]
         sd = (1.0 - w) * self.sd[i] + w * self.sd[i + 1]
         a = s * self.theta
-        R_d = self.R0 + math.sin(a) * self.R0K + (1.0 - math.cos(a)) * self.R0K2
-        return s, sd, self.p0 + s * self.delta_p, R_d
+        sn, cs = math.sin(a), 1.0 - math.cos(a)
+        p_d = [p + s * d for p, d in zip(self.p0, self.delta_p, strict=True)]  # p0 + s delta_p
+        return s, sd, p_d, [r + sn * k + cs * k2 for r, k, k2 in self.R]
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
@@ -230,7 +237,6 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     its, times = np.zeros(n, dtype=np.int64), np.zeros(n)
     position_box, low_v = np.stack([lo_q, hi_q]), -vmax
     fallbacks, failure, tau, no_rows = 0, None, 0.0, ()
-    e_o = np.zeros(3)
     positions[0] = task.q_start
     q = positions[0]
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
@@ -240,12 +246,11 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             task.deadline.check("resolved-rate control")
         s, sd, p_d, R_d = setpoint(tau)
         T_now, J_now = kinematics(q)
-        e_p = p_d - T_now[:3, 3]
-        if pose_task:
-            e_o = so3.log(R_d @ T_now[:3, :3].T)
+        M = (np.reshape(R_d, (3, 3)) @ T_now[:3, :3].T).tolist() if pose_task else None
+        e = pose_error(T_now[:3, 3].tolist(), p_d, M)
         s_log[k] = s
-        err_p = math.sqrt(e_p @ e_p if all_p else e_p[p_rows] @ e_p[p_rows])
-        err_o = math.sqrt(e_o @ e_o)
+        err_p = math.sqrt(e[0] * e[0] + e[1] * e[1] + (e[2] * e[2] if all_p else 0.0))
+        err_o = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
         track_p[k], track_o[k] = err_p, err_o
         at_end = tau >= setpoint.end - 0.5 * dt
         if at_end and err_p <= GOAL_FRACTION * goal_p and err_o <= GOAL_FRACTION * goal_o:
@@ -259,18 +264,18 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             break
         J = J_now if all_rows else J_now[rows]
         twist = sd * unit_twist
-        error = np.concatenate((e_p, e_o))
+        error = np.array(e)
         feedback = gain * (error if all_rows else error[rows])
         nxt = positions[k + 1]
         if dls:
-            sigma[k] = sigma_min = singular_values(J)[-1]
+            sigma[k] = sigma_min = float(singular_values(J)[-1])
             lam_log[k] = lam = damping(sigma_min, floor=floor)
             gains = 1.0 / sigma_min if sigma_min > 0.0 else math.inf
             if lam > 0.0:
                 gains = min(gains, 0.5 / lam)
+            kappa = 1.0
             if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:
-                scale[k] = time_scale(*svd(J), twist, lam, vmax)
-            kappa = scale[k]
+                scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
             B = bounds[k]  # rate_bounds(q, limits, dt), written in place
             np.subtract(position_box, q, out=B)
             np.divide(B, dt, out=B)
