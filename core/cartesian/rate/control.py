@@ -227,6 +227,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
     unit_twist = np.concatenate([line.delta_p, setpoint.omega])[rows]  # per unit s' [1/s]
     # |qd_ff|_inf <= |twist| max_i S_i / (S_i^2 + lam^2) / min v_max (with room for rounding)
+    units, row_list = unit_twist.tolist(), rows.tolist()
     twist_bound = math.sqrt(float(unit_twist @ unit_twist)) * (1.0 + 1e-6) / float(vmax.min())
 
     n, dof = total + 1, robot.dof
@@ -246,7 +247,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             task.deadline.check("resolved-rate control")
         s, sd, p_d, R_d = setpoint(tau)
         T_now, J_now = kinematics(q)
-        M = (np.reshape(R_d, (3, 3)) @ T_now[:3, :3].T).tolist() if pose_task else None
+        # (ndarray.dot: the same BLAS call as @ without the ufunc machinery, about 1 us less)
+        M = np.array(R_d).reshape(3, 3).dot(T_now[:3, :3].T).tolist() if pose_task else None
         e = pose_error(T_now[:3, 3].tolist(), p_d, M)
         s_log[k] = s
         err_p = math.sqrt(e[0] * e[0] + e[1] * e[1] + (e[2] * e[2] if all_p else 0.0))
@@ -263,9 +265,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
                 failure = stuck(robot, line, q, sigma[k - 1], first, at_end, s, dt * k)
             break
         J = J_now if all_rows else J_now[rows]
-        twist = sd * unit_twist
-        error = np.array(e)
-        feedback = gain * (error if all_rows else error[rows])
+        # V = kappa s' unit_twist + K e, element by element (as the array expression would).
+        e_task = e if all_rows else [e[i] for i in row_list]
         nxt = positions[k + 1]
         if dls:
             sigma[k] = sigma_min = float(singular_values(J)[-1])
@@ -275,13 +276,13 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
                 gains = min(gains, 0.5 / lam)
             kappa = 1.0
             if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:
-                scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
+                scale[k] = kappa = time_scale(*svd(J), sd * unit_twist, lam, vmax)
             B = bounds[k]  # rate_bounds(q, limits, dt), written in place
             np.subtract(position_box, q, out=B)
             np.divide(B, dt, out=B)
             np.maximum(B, low_v, out=B)
             np.minimum(B, vmax, out=B)
-            V = kappa * twist + feedback
+            V = np.array([kappa * (sd * u) + gain * x for u, x in zip(units, e_task, strict=True)])
             start = clock()
             if qp is not None:
                 its[k], fell_back, _ = qp.solve(
@@ -311,7 +312,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             kappa = 1.0
             U, S, Vt = svd(J)
             sigma[k] = S[-1]
-            failure, qd = pinv_step(robot, U, S, Vt, twist + feedback, s, q, dt, limits)
+            V = np.array([sd * u + gain * x for u, x in zip(units, e_task, strict=True)])
+            failure, qd = pinv_step(robot, U, S, Vt, V, s, q, dt, limits)
             if failure is not None:
                 n = k + 1
                 break

@@ -4,6 +4,7 @@ its one-shot path are in ``core.cartesian.rate.qp``."""
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from typing import Protocol
@@ -93,11 +94,12 @@ class DlsQpSolver:
         """The per-tick path of ``step``: writes the rates (clipped into the bounds) into ``out``
         (dof,) and returns ``(iterations, fallback, violation)``; ``rows`` as ``ExtraRows``
         returns them (at most ``capacity``)."""
-        H = J.T @ J
+        H = J.T.dot(J)  # (ndarray.dot: the BLAS call of @ with less overhead; same bits)
         Px = H.take(self._triu)
         if lam != 0.0:  # (adding 0 changes no entry: a diagonal of J^T J is never -0)
             Px[self._diag] += lam * lam
-        c = -(J.T @ V)
+        c = -J.T.dot(V)
+        box_lower, box_upper = lower, upper
         if self.capacity or rows:
             lower, upper = self._set_rows(rows, lower, upper)
         if self._ext is not None:
@@ -116,9 +118,11 @@ class DlsQpSolver:
             x, info = result.x, result.info
         self._with_rows = bool(rows)
         iterations, status = int(info.iter), info.status_val
-        fallback = int(status) != self._solved or not np.isfinite(x).all()
+        # x . x is finite iff x is (rates inside finite bounds are far below 1e154): 0.7 against
+        # 2.8 us for np.isfinite(x).all()
+        fallback = int(status) != self._solved or not math.isfinite(x.dot(x))
         if fallback:
-            x = self._exact(J, V, lam, lower[: self.dof], upper[: self.dof], rows)
+            x = self._exact(J, V, lam, box_lower, box_upper, rows)
             if self._warm:  # (OSQP's warm_start turns warm starting on)
                 if rows:
                     self._osqp.warm_start(x=x)
@@ -127,8 +131,8 @@ class DlsQpSolver:
                     y = np.concatenate([-(H @ x + c), np.zeros(self.capacity)])
                     self._osqp.warm_start(x=x, y=y)
         self._info = info
-        np.maximum(x, lower[: self.dof], out=out)
-        np.minimum(out, upper[: self.dof], out=out)
+        np.maximum(x, box_lower, out=out)
+        np.minimum(out, box_upper, out=out)
         return iterations, fallback, x
 
     def _set_rows(
