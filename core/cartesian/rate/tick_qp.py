@@ -69,6 +69,7 @@ class DlsQpSolver:
         )
         self._l, self._u = np.full(n + m, -_INFINITY), np.full(n + m, _INFINITY)
         self._with_rows = False  # G was non-zero at the last update
+        self._lam, self._lam2 = 0.0, np.zeros(len(rows))  # the damping term of P_x, cached
         self._osqp = osqp.OSQP()
         self._osqp.setup(
             P, np.zeros(n), A, -np.ones(n + m), np.ones(n + m), **{**OSQP_SETTINGS, **settings}
@@ -97,18 +98,20 @@ class DlsQpSolver:
         H = J.T.dot(J)  # (ndarray.dot: the BLAS call of @ with less overhead; same bits)
         Px = H.take(self._triu)
         if lam != 0.0:  # (adding 0 changes no entry: a diagonal of J^T J is never -0)
-            Px[self._diag] += lam * lam
+            if lam != self._lam:  # lam^2 on the diagonal entries, 0 elsewhere (adding 0 keeps them)
+                self._lam, self._lam2 = lam, np.where(self._rows == self._cols, lam * lam, 0.0)
+            np.add(Px, self._lam2, out=Px)
         c = -J.T.dot(V)
         box_lower, box_upper = lower, upper
         if self.capacity or rows:
             lower, upper = self._set_rows(rows, lower, upper)
         if self._ext is not None:
             ext = self._ext
-            ext.update_data_vec(q=c, l=lower, u=upper)
+            ext.update_data_vec(c, lower, upper)  # (positional: q, l, u)
             if self._with_rows or rows:
-                ext.update_data_mat(P_x=Px, P_i=None, A_x=self._Ax.ravel(), A_i=None)
+                ext.update_data_mat(Px, None, self._Ax.ravel(), None)
             else:
-                ext.update_data_mat(P_x=Px, P_i=None, A_x=None, A_i=None)
+                ext.update_data_mat(Px, None, None, None)  # (P_x, P_i, A_x, A_i)
             ext.solve()
             x, info = ext.solution.x, ext.info
         else:
