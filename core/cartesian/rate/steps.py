@@ -81,7 +81,7 @@ def time_scale(U, S, Vt, twist: np.ndarray, lam: float, vmax: np.ndarray) -> flo
     """Path-clock rate in (0, 1] that keeps the DLS rates ``V diag(S / (S^2 + lam^2)) U^T twist``
     of the feedforward twist within ``TIME_SCALE_MARGIN`` of the velocity limits (1 when they
     already are); ``U, S, Vt`` is the thin SVD of the task Jacobian."""
-    qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
+    qd = Vt.T.dot(S / (S * S + lam * lam) * U.T.dot(twist))  # (dot: the BLAS call of @, faster)
     ratio = float((np.abs(qd) / vmax).max())
     return 1.0 if ratio <= TIME_SCALE_MARGIN else TIME_SCALE_MARGIN / ratio
 
