@@ -60,6 +60,7 @@ from core.cartesian.rate.qp import (
 )
 from core.cartesian.rate.steps import (
     TIME_SCALE_MARGIN,
+    feedforward_ratio,
     first_limit,
     pinv_step,
     pose_error,
@@ -276,8 +277,11 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             if lam > 0.0:
                 gains = min(gains, 0.5 / lam)
             kappa = 1.0
-            if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:
-                scale[k] = kappa = time_scale(*svd(J), sd * unit_twist, lam, vmax)
+            if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:  # the norm bound may bind
+                twist = sd * unit_twist
+                # Cholesky first: the SVD route (exactly as before) only where it may bind.
+                if feedforward_ratio(J, twist, lam, vmax) > TIME_SCALE_MARGIN * (1.0 - 1e-9):
+                    scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
             B = bounds[k]  # rate_bounds(q, limits, dt), written in place
             np.subtract(position_box, q, out=B)
             np.divide(B, dt, out=B)

@@ -1,0 +1,53 @@
+"""The scalar and LAPACK pieces of a tick against numpy/scipy references: the pose error against
+``so3.log`` and scipy's rotation vector, the singular values and thin SVD against
+``np.linalg.svd``, the Cholesky feed-forward ratio against the SVD form."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from core.cartesian.rate.steps import feedforward_ratio, pose_error, singular_values, svd
+from core.geometry import so3
+
+
+@pytest.mark.parametrize("scale", [1e-5, 0.01, 0.5, 1.5, 3.0])
+def test_pose_error_is_so3_log_of_the_orientation_error(scale):
+    rng = np.random.default_rng(int(scale * 1e5))
+    for _ in range(50):
+        R = Rotation.random(random_state=rng).as_matrix()
+        R_d = Rotation.from_rotvec(rng.normal(size=3) * scale).as_matrix() @ R
+        M = R_d @ R.T
+        p, p_d = rng.normal(size=3), rng.normal(size=3)
+        e = np.array(pose_error(p.tolist(), p_d.tolist(), M.tolist()))
+        assert np.array_equal(e[:3], p_d - p)
+        assert np.array_equal(e[3:], so3.log(M))  # the same operations: the same bits
+        assert np.allclose(e[3:], Rotation.from_matrix(M).as_rotvec(), atol=1e-12)
+    assert pose_error([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], None) == [-1.0, -2.0, -3.0, 0, 0, 0]
+
+
+def test_svd_pieces_match_numpy():
+    rng = np.random.default_rng(4)
+    for shape in [(6, 6), (6, 7), (2, 2), (6, 3)]:
+        J = rng.normal(size=shape)
+        U, S, Vt = svd(J)
+        U0, S0, Vt0 = np.linalg.svd(J, full_matrices=False)
+        assert np.array_equal(S, S0)  # the same LAPACK routine: the same values
+        assert np.allclose((U * S) @ Vt, J, rtol=0, atol=1e-13)
+        assert np.allclose(np.abs(U), np.abs(U0), atol=1e-12)
+        assert np.allclose(np.abs(Vt), np.abs(Vt0), atol=1e-12)
+        assert np.allclose(singular_values(J), S0, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("lam", [0.0, 3e-3, 0.04])
+def test_feedforward_ratio_equals_the_svd_form(lam):
+    rng = np.random.default_rng(int(lam * 1e4))
+    vmax = rng.uniform(1.0, 3.0, 7)
+    for _ in range(50):
+        J, twist = rng.normal(size=(6, 7)), rng.normal(size=6)
+        U, S, Vt = np.linalg.svd(J, full_matrices=False)
+        qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
+        exact = np.max(np.abs(qd) / vmax)
+        assert feedforward_ratio(J, twist, lam, vmax) == pytest.approx(exact, rel=1e-11)
+    assert feedforward_ratio(np.zeros((6, 7)), np.ones(6), 0.0, vmax) == np.inf  # singular
