@@ -97,6 +97,8 @@ MAX_TICKS = 1_000_000
 ACTIVE_TOLERANCE = 1e-6
 """[rad/s] A rate this close to its bound counts as an active limit."""
 _CHECK_EVERY = 256
+_FIRST_BLOCK, _BLOCK = 16, 1024
+"""Setpoints tabulated per block of ticks: the first after a slowed tick, and the most (doubling)."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
 
@@ -155,13 +157,14 @@ class _Setpoint:
 
     def __init__(self, line: StraightLine, timing: Profile, dt: float, n: int):
         grid = np.arange(n + 2) * dt
-        self.s, self.sd = timing(grid).tolist(), timing(grid, 1).tolist()
+        self.s_table, self.sd_table = timing(grid), timing(grid, 1)
+        self.s, self.sd = self.s_table.tolist(), self.sd_table.tolist()
         self.dt, self.end, self.last = dt, n * dt, n  # (len(self.s) - 2)
         self.p0, self.delta_p, theta = line.p0.tolist(), line.delta_p.tolist(), line.angle
         K = so3.skew(line.rotvec / theta) if theta > 0.0 else np.zeros((3, 3))
         # R0 exp(s theta [k]) = R0 + sin(s theta) R0 [k] + (1 - cos(s theta)) R0 [k]^2.
         R0K, R0K2 = line.R0 @ K, line.R0 @ K @ K
-        self.theta = theta
+        self.theta, self.R0K, self.R0K2, self.line = theta, R0K, R0K2, line
         R = (line.R0.ravel().tolist(), R0K.ravel().tolist(), R0K2.ravel().tolist())
         self.R = list(zip(*R, strict=True))
         self.omega = line.R0 @ line.rotvec
@@ -178,6 +181,24 @@ class _Setpoint:
         sn, cs = math.sin(a), 1.0 - math.cos(a)
         p_d = [p + s * d for p, d in zip(self.p0, self.delta_p, strict=False)]  # p0 + s delta_p
         return s, sd, p_d, [r + sn * k + cs * k2 for r, k, k2 in self.R]
+
+    def block(self, tau: float, count: int) -> tuple[list, list, list, np.ndarray]:
+        """The setpoints of the next ``count`` ticks from clock time ``tau`` if the clock keeps
+        rate 1 (``tau`` advancing by ``dt`` a tick, summed one by one as the loop does), by the
+        operations of ``__call__`` on arrays (the same bits): ``s``, ``s'`` and ``p_d`` (lists)
+        and ``R_d`` ``(count, 3, 3)``."""
+        steps = np.full(count, self.dt)
+        steps[0] = tau
+        x = np.minimum(np.cumsum(steps), self.end) / self.dt
+        i = np.minimum(x.astype(np.int64), self.last)
+        w = x - i
+        s = (1.0 - w) * self.s_table[i] + w * self.s_table[i + 1]
+        sd = (1.0 - w) * self.sd_table[i] + w * self.sd_table[i + 1]
+        a = s * self.theta
+        sn, cs = np.sin(a)[:, None, None], (1.0 - np.cos(a))[:, None, None]
+        R_d = self.line.R0 + sn * self.R0K + cs * self.R0K2
+        p_d = self.line.p0 + s[:, None] * self.line.delta_p
+        return s.tolist(), sd.tolist(), p_d.tolist(), R_d
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
@@ -241,15 +262,25 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     fallbacks, failure, tau, no_rows = 0, None, 0.0, ()
     positions[0] = task.q_start
     q = positions[0]
+    nominal_clock, block_at, block_end, block_size = True, 0, 0, _FIRST_BLOCK
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
     clock = time.perf_counter
     for k in range(n):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
-        s, sd, p_d, R_d = setpoint(tau)
+        if nominal_clock:  # setpoints tabulated a block of ticks at a time (while kappa = 1)
+            if k >= block_end:
+                count = min(block_size, n - k)
+                block_s, block_sd, block_p, block_R = setpoint.block(tau, count)
+                block_at, block_end, block_size = k, k + count, min(2 * block_size, _BLOCK)
+            j = k - block_at
+            s, sd, p_d, R_d = block_s[j], block_sd[j], block_p[j], block_R[j]
+        else:
+            s, sd, p_d, R_d = setpoint(tau)
+            R_d = np.array(R_d).reshape(3, 3)
         T_now, J_now = kinematics(q)
         # (ndarray.dot: the same BLAS call as @ without the ufunc machinery, about 1 us less)
-        M = np.array(R_d).reshape(3, 3).dot(T_now[:3, :3].T).tolist() if pose_task else None
+        M = R_d.dot(T_now[:3, :3].T).tolist() if pose_task else None
         e = pose_error(T_now[:3, 3].tolist(), p_d, M)
         s_log[k] = s
         err_p = math.sqrt(e[0] * e[0] + e[1] * e[1] + (e[2] * e[2] if all_p else 0.0))
@@ -326,6 +357,10 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             np.multiply(qd, dt, out=nxt)
             np.add(q, nxt, out=nxt)
         q, tau = nxt, tau + kappa * dt
+        if kappa != 1.0:  # the tabulated setpoints no longer apply
+            nominal_clock, block_end, block_size = False, 0, _FIRST_BLOCK
+        elif not nominal_clock:
+            nominal_clock = True
     steps = n - 1
     active = np.zeros(steps, dtype=bool)
     if dls:
