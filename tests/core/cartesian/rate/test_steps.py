@@ -8,8 +8,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from core.cartesian.rate.control import _Setpoint, nominal_timing
 from core.cartesian.rate.steps import feedforward_ratio, pose_error, singular_values, svd
+from core.cartesian.validate import validated_line
 from core.geometry import so3
+from tests.core.cartesian.rate.scenarios import SCENARIOS
 
 
 @pytest.mark.parametrize("scale", [1e-5, 0.01, 0.5, 1.5, 3.0])
@@ -51,3 +54,20 @@ def test_feedforward_ratio_equals_the_svd_form(lam):
         exact = np.max(np.abs(qd) / vmax)
         assert feedforward_ratio(J, twist, lam, vmax) == pytest.approx(exact, rel=1e-11)
     assert feedforward_ratio(np.zeros((6, 7)), np.ones(6), 0.0, vmax) == np.inf  # singular
+
+
+def test_tabulated_setpoints_equal_the_per_tick_ones():
+    pytest.importorskip("robots.registry")
+    task = SCENARIOS["puma_wrist_dls"][0]()
+    line = validated_line(task)
+    timing = nominal_timing(task, line)
+    dt = timing.duration / 200
+    setpoint = _Setpoint(line, timing, dt, 200)
+    for tau0 in (0.0, 0.37 * dt, 150.5 * dt):  # the last block runs past the end (held there)
+        s, sd, p_d, R_d = setpoint.block(tau0, 80)
+        tau = tau0
+        for k in range(80):
+            s_k, sd_k, p_k, R_k = setpoint(tau)
+            assert (s[k], sd[k], p_d[k]) == (s_k, sd_k, p_k)
+            assert np.array_equal(R_d[k], np.reshape(R_k, (3, 3)))
+            tau = tau + 1.0 * dt
