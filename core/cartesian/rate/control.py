@@ -209,11 +209,13 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     and are returned in ``failure``; malformed input (``InputError``), a run over ``MAX_TICKS``
     (``TooLarge``) and the deadline raise.
 
-    The loop keeps per-tick work to what each tick needs: arrays preallocated for the whole run
-    and written in place (rate bounds, rates, next positions), scalar math for the path clock and
-    the damping, LAPACK's SVD without numpy's wrapper, one OSQP workspace updated in place, the
-    path-clock SVD product skipped where a norm bound already keeps it at 1, the active-bound
-    flags and the first pinned joint found from the stored arrays after the loop.
+    The loop keeps per-tick work to what each tick needs (issue 19, P5; every output equal to the
+    previous loop's within 1e-12, iterations exactly): arrays preallocated for the run and written
+    in place (rate bounds, rates, next positions); setpoints tabulated per block of ticks while
+    the clock runs at rate 1; pose error, damping and path clock in Python floats; singular values
+    by LAPACK's gesdd without numpy's wrapper; the path-clock rate skipped where a norm bound, then
+    a Cholesky solve, keep it at 1; one OSQP workspace updated in place; active-bound flags and the
+    first pinned joint from the stored arrays after the loop.
     """
     if method not in RATE_METHODS:
         raise InputError(f"method must be one of {', '.join(RATE_METHODS)}", field=("method",))
