@@ -6,10 +6,12 @@ from dataclasses import replace
 
 import numpy as np
 
+from core.cartesian.ik_on_path import label_change
 from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.measure import DeviationReport, measure_chunked, min_singular_values
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
+    BranchFlip,
     Infeasible,
     JointLimit,
     JointRateLimit,
@@ -46,15 +48,47 @@ def check_limits(robot: Kinematics, traj: Trajectory, s: np.ndarray | None = Non
 def finish(
     task: CartesianTask, result: CartesianResult, s: np.ndarray | None = None
 ) -> CartesianResult:
-    """``result`` checked (joint limits) and measured (dense deviation, smallest singular value at
+    """``result`` checked (joint limits, the start's configuration label) and measured (dense deviation, smallest singular value at
     every returned point): a new frozen result with ``deviation``, ``singular_values`` and
     ``min_singular_value`` set."""
     check_limits(task.robot, result.trajectory, s)
     deviation = measure(task, result.trajectory)
+    flip = check_labels(task, result.trajectory, s, deviation)
+    if flip is not None:
+        if not task.allow_violations:
+            raise flip
+        result = replace(result, warnings=(*result.warnings, f"{flip} (allow_violations)"))
     sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
     return replace(
         result, deviation=deviation, singular_values=sv, min_singular_value=float(sv.min())
     )
+
+
+def check_labels(
+    task: CartesianTask,
+    traj: Trajectory,
+    s: np.ndarray | None = None,
+    deviation: DeviationReport | None = None,
+) -> BranchFlip | None:
+    """``BranchFlip`` at the first returned point whose configuration label differs from the
+    start's (robots with labels; one batched ``configurations`` call). Its ``s``: from ``s`` (N,),
+    else the dense measurement's closest path parameter at that point. None when every point keeps
+    the start's label (or the robot has none). ``finish`` raises it, or with ``allow_violations``
+    returns the plan with it as a warning (the DLS may pass a singularity on purpose)."""
+    label = task.robot.configuration(np.asarray(task.q_start, dtype=float))
+    if label is None:
+        return None
+    off = np.flatnonzero(np.array(task.robot.configurations(traj.positions)) != label)
+    if not len(off):
+        return None
+    i = int(off[0])
+    if s is not None:
+        at = float(s[i])
+    elif deviation is not None and len(traj.times) > 1:
+        at = float(deviation.s[i * ((len(deviation.s) - 1) // (len(traj.times) - 1))])
+    else:
+        at = 0.0
+    return label_change(at, label)
 
 
 def measure(task: CartesianTask, traj: Trajectory) -> DeviationReport:

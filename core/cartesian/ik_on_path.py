@@ -14,6 +14,7 @@ from core.cartesian.knot_path import Knots
 from core.errors import (
     BranchFlip,
     JointLimit,
+    PlanningError,
     Unreachable,
 )
 from core.geometry import so3
@@ -39,6 +40,9 @@ CONTINUATION_STEP = (0.05, 0.25)
 on the start's branch."""
 CONTINUATION_JOINT_STEP = 0.1
 """Largest predicted joint step [rad] of one continuation step."""
+LABEL_BOUNDARY = 1e-6
+"""Smallest task-Jacobian singular value below which a solution lies on the singular set where
+labels change: it is the limit of every adjacent label's branch (``on_label``)."""
 MIN_CONTINUATION_STEP = 1e-5
 """Shortest continuation step [share of s]; a failure there is the line's failure."""
 
@@ -99,6 +103,52 @@ def same_branch(step: np.ndarray, predicted: np.ndarray) -> bool:
     return float(np.max(np.abs(step))) <= limit
 
 
+def on_label(
+    kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray
+) -> np.ndarray | PlanningError:
+    """The exact answer at the pose ``T`` (path parameter ``s``) for a robot with labels: the
+    solution with the start's configuration ``label`` nearest ``near`` (``kin.ik_all``: every
+    solution), else why there is none -- ``Unreachable`` when the pose has no solution at all (off
+    the workspace), ``JointLimit`` when it has some only outside the joint limits, ``BranchFlip``
+    when every solution carries another label (unless it is singular: on the boundary between
+    labels, ``LABEL_BOUNDARY``, it is returned)."""
+    sols = kin.ik_all(T, np.asarray(near, dtype=float))
+    same = [i for i, c in enumerate(sols.configurations) if c == label]
+    if same:
+        return np.asarray(sols.positions[same[0]], dtype=float)
+    where = f"at s={s:.4f}"
+    if len(sols.positions):
+        q = np.asarray(sols.positions[0], dtype=float)
+        rows = task_rows(kin.task_space)
+        if np.linalg.svd(kin.jacobian(q)[rows], compute_uv=False)[-1] < LABEL_BOUNDARY:
+            return q  # on the singular set between labels: the limit of the start's branch too
+        others = ", ".join(sorted({str(c) for c in sols.configurations}))
+        return BranchFlip(
+            f"the pose {where} has IK solutions only in other configurations ({others}) than the "
+            f"start's ({label}): the line would flip the arm's branch there",
+            s=float(s),
+            extra={"configuration": label},
+        )
+    if sols.outside_limits:
+        return JointLimit(
+            f"the pose {where} is reachable only outside the joint limits", s=float(s)
+        )
+    return Unreachable(
+        f"no IK solution {where}: the pose is off the robot's workspace",
+        s=float(s),
+    )
+
+
+def label_change(s: float, label: str) -> BranchFlip:
+    """The arm leaves the start's configuration ``label`` at ``s``."""
+    return BranchFlip(
+        f"the arm leaves the start's configuration ({label}) at s={s:.4f}: the line would flip "
+        "its branch there",
+        s=float(s),
+        extra={"configuration": label},
+    )
+
+
 def solve_on_line(
     kin: Kinematics,
     line: StraightLine,
@@ -107,6 +157,7 @@ def solve_on_line(
     reference: np.ndarray | None = None,
     *,
     strict: bool = False,
+    label: str | None = None,
 ) -> np.ndarray:
     """Joint positions (dof,) at the line's pose at ``s``, on the branch of ``seed``.
 
@@ -116,7 +167,8 @@ def solve_on_line(
     Jacobian predicts (``same_branch``); ``strict`` (small steps): when it is within
     ``STRICT_BRANCH`` of the predicted configuration. Raises ``BranchFlip`` when IK converges only on
     another branch, ``JointLimit`` when only outside the joint limits, ``Unreachable`` when not at
-    all; each with ``s``.
+    all; each with ``s``. With the start's configuration ``label`` (robots with labels) a solution
+    must also carry it, and the failure is decided exactly by ``on_label``.
     """
     T = line.pose(s)
     seed = np.asarray(seed, dtype=float)
@@ -136,18 +188,35 @@ def solve_on_line(
             outcome = "joint_limit" if outcome == "unreachable" else outcome
             continue
         q = np.asarray(res.positions, dtype=float)
-        if strict:
-            if follows(q, seed, anchors[0][1]):
-                return q
-        elif any(same_branch(q - anchor, predicted) for anchor, predicted in anchors):
+        if (label is None or kin.configuration(q) == label) and _on_branch(q, anchors, strict):
             return q
         outcome = "branch_flip"
     where = f"at s={s:.4g}"
+    if label is not None:
+        exact = on_label(kin, T, s, label, seed)
+        if not isinstance(exact, np.ndarray):
+            raise exact
+        if _on_branch(exact, anchors, strict):
+            return exact
+        raise BranchFlip(
+            f"the solution in the start's configuration ({label}) {where} is not where the "
+            "Jacobian predicts the arm (it would jump there)",
+            s=float(s),
+        )
     if outcome == "branch_flip":
         raise BranchFlip(f"IK on the line {where} lands only on another branch", s=float(s))
     if outcome == "joint_limit":
         raise JointLimit(f"the line {where} is reachable only outside the joint limits", s=float(s))
     raise Unreachable(f"no IK solution within {IK_TOLERANCE:g} m on the line {where}", s=float(s))
+
+
+def _on_branch(q: np.ndarray, anchors: list[tuple[np.ndarray, np.ndarray]], strict: bool) -> bool:
+    """``solve_on_line``'s branch test: ``follows`` the first anchor's prediction (``strict``), or
+    ``same_branch`` from any anchor."""
+    if strict:
+        seed, step = anchors[0]
+        return bool(follows(q, seed, step))
+    return any(same_branch(q - anchor, predicted) for anchor, predicted in anchors)
 
 
 def continuation(
@@ -166,6 +235,7 @@ def continuation(
     rows = task_rows(kin.task_space)
     twist = line.derivative(np.zeros(1))[0][rows]  # tool twist per unit s (a line: constant)
     s, q = 0.0, np.asarray(q_start, dtype=float)
+    label = kin.configuration(q)
     s_list, q_list = [s], [q]
     halved = 1.0
     while s < 1.0:
@@ -176,7 +246,7 @@ def continuation(
         ds = max(ds, MIN_CONTINUATION_STEP)
         s_next = min(1.0, s + ds)
         try:
-            q = solve_on_line(kin, line, s_next, q, strict=True)
+            q = solve_on_line(kin, line, s_next, q, strict=True, label=label)
         except (BranchFlip, Unreachable, JointLimit) as err:
             if ds <= MIN_CONTINUATION_STEP:
                 err.extra["s_reached"] = s
