@@ -1,0 +1,92 @@
+"""Configuration labels on Cartesian lines (issue 14): ``on_label`` decides a failed pose exactly,
+``check_labels`` finds the first returned point off the start's label, the toy models' defaults.
+
+References: the planar arm's closed form (reach l1 + l2 = 1.8 m, elbow from the law of cosines)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.cartesian.check import check_labels, finish
+from core.cartesian.ik_on_path import on_label
+from core.cartesian.plan import plan
+from core.cartesian.task import CartesianResult, CartesianTask
+from core.errors import BranchFlip, Unreachable
+from core.trajectory import Trajectory
+from tests.toy_kinematics import LabelledToy, ToyPlanar2R
+
+
+def at(x: float, y: float) -> np.ndarray:
+    T = np.eye(4)
+    T[:2, 3] = [x, y]
+    return T
+
+
+def elbow(x: float, y: float, sign: float) -> np.ndarray:
+    q2 = sign * math.acos((x * x + y * y - 1.64) / 1.6)
+    return np.array(
+        [math.atan2(y, x) - math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), q2]
+    )
+
+
+def test_toy_defaults_have_no_labels_and_one_solution():
+    toy = ToyPlanar2R()
+    q = np.array([0.3, 0.9])
+    assert toy.configuration(q) is None and toy.configurations(np.stack([q, q])) == [None, None]
+    sols = toy.ik_all(toy.fk(q), q)
+    assert sols.configurations == (None,) and np.allclose(sols.positions[0], q, atol=1e-12)
+    off = toy.ik_all(at(2.0, 0.0), q)
+    assert len(off.positions) == 0 and off.outside_limits == 0
+
+
+def test_on_label_returns_the_start_label_solution_nearest_the_seed():
+    toy = LabelledToy()
+    for sign, label in ((1.0, "down"), (-1.0, "up")):
+        q = on_label(toy, at(0.9, 0.6), 0.5, label, elbow(0.9, 0.6, sign) + 0.01)
+        assert isinstance(q, np.ndarray) and toy.configuration(q) == label
+        assert np.allclose(q, elbow(0.9, 0.6, sign), atol=1e-12)
+
+
+def test_on_label_tells_unreachable_from_branch_flip():
+    toy = LabelledToy()
+    off = on_label(toy, at(1.81, 0.0), 0.7, "down", np.zeros(2))
+    assert isinstance(off, Unreachable) and off.s == 0.7
+    flip = on_label(toy, at(1.3, 0.5), 0.4, "down", np.zeros(2))  # past x_cut: only "up"
+    assert isinstance(flip, BranchFlip) and flip.s == 0.4 and "up" in str(flip)
+    assert isinstance(on_label(toy, at(1.3, 0.5), 0.4, "up", np.zeros(2)), np.ndarray)
+
+
+def test_on_label_at_the_rim_is_the_limit_of_both_branches():
+    """At |p| = l1 + l2 exactly the one solution is stretched (q2 = 0, label down, singular): it
+    ends the up branch too, so a line there is not a branch flip."""
+    toy = LabelledToy()
+    q = on_label(toy, at(1.8, 0.0), 0.4, "up", np.array([0.0, -0.01]))
+    assert isinstance(q, np.ndarray) and abs(q[1]) < 1e-7
+
+
+@pytest.mark.parametrize("method", ["sampled", "bounded_deviation", "bounded_deviation_nlp"])
+def test_a_line_losing_its_start_label_is_a_branch_flip_where_it_is_lost(method):
+    """From (0.7, 0.5) to (1.5, 0.5) the down solutions end at x = 1.1: s = 0.5."""
+    toy = LabelledToy()
+    task = CartesianTask(robot=toy, q_start=elbow(0.7, 0.5, 1.0), T_goal=at(1.5, 0.5))
+    with pytest.raises(BranchFlip) as err:
+        plan(task, method)
+    assert abs(err.value.s - 0.5) <= 0.01
+
+
+def test_check_labels_finds_the_first_point_off_the_start_label():
+    toy = LabelledToy()
+    q = np.array([[0.1, 0.3], [0.1, 0.1], [0.1, -0.1], [0.1, 0.2]])
+    traj = Trajectory(np.arange(4.0), q, np.zeros_like(q), np.zeros_like(q), toy.joint_names)
+    task = CartesianTask(robot=toy, q_start=q[0], T_goal=toy.fk(q[-1]))
+    flip = check_labels(task, traj, np.array([0.0, 0.3, 0.6, 1.0]))
+    assert isinstance(flip, BranchFlip) and flip.s == 0.6 and "down" in str(flip)
+    assert check_labels(task, Trajectory(traj.times[:2], q[:2], q[:2] * 0, q[:2] * 0)) is None
+    result = CartesianResult(trajectory=traj, fraction=1.0)
+    with pytest.raises(BranchFlip):
+        finish(task, result)
+    allowed = CartesianTask(robot=toy, q_start=q[0], T_goal=toy.fk(q[-1]), allow_violations=True)
+    assert any("down" in w for w in finish(allowed, result).warnings)
