@@ -57,6 +57,36 @@ class Solutions(Protocol):
         ...
 
 
+class PathSolutions(Protocol):
+    """IK of a sequence of poses on one configuration (``Kinematics.ik_many``; ``robots.ik.IKPath``
+    is one)."""
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(N, dof)`` joint positions, 2 pi turns unwrapped from the seed; a row without a
+        solution repeats the previous one."""
+        ...
+
+    @property
+    def found(self) -> np.ndarray:
+        """``(N,)`` bool: a verified solution with the configuration exists at that pose."""
+        ...
+
+    @property
+    def within_limits(self) -> np.ndarray:
+        """``(N,)`` bool: found, and inside the joint position limits."""
+        ...
+
+
+@dataclass(frozen=True)
+class PathSolutionSet:
+    """A plain ``PathSolutions`` (the default ``ik_many`` of ``DerivedKinematics``)."""
+
+    positions: np.ndarray
+    found: np.ndarray
+    within_limits: np.ndarray
+
+
 @dataclass(frozen=True)
 class SolutionSet:
     """A plain ``Solutions`` (the default ``ik_all`` of ``DerivedKinematics``)."""
@@ -154,6 +184,13 @@ class Kinematics(Protocol):
         off the workspace. Core calls it only for robots with labels."""
         ...
 
+    def ik_many(
+        self, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+    ) -> PathSolutions:
+        """IK of every pose of ``Ts`` ``(N, 4, 4)`` on one configuration (default the seed's),
+        verified to 1e-9 m and rad (batched for analytic arms)."""
+        ...
+
 
 class SymbolicKinematics(Kinematics, Protocol):
     """A robot whose FK is also a CasADi expression (the bounded-deviation NLP needs it)."""
@@ -205,6 +242,22 @@ class DerivedKinematics:
             outside = int(not r.within_limits and max(r.position_error, r.orientation_error) < 1e-6)
             return SolutionSet(np.zeros((0, len(start))), (), outside)
         return SolutionSet(np.asarray(r.positions, dtype=float)[None], (None,), 0)
+
+    def ik_many(
+        self, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+    ) -> PathSolutions:
+        """``ik`` pose by pose, each from the previous solution (the label is not checked)."""
+        Ts = np.asarray(Ts, dtype=float)
+        positions = np.zeros((len(Ts), self.dof))
+        found, within = np.zeros(len(Ts), dtype=bool), np.zeros(len(Ts), dtype=bool)
+        previous = np.asarray(seed, dtype=float)
+        for i, T in enumerate(Ts):
+            r = self.ik(T, previous)  # type: ignore[attr-defined]
+            found[i] = max(r.position_error, r.orientation_error) <= 1e-9
+            within[i] = found[i] and r.within_limits
+            previous = np.asarray(r.positions, dtype=float) if found[i] else previous
+            positions[i] = previous
+        return PathSolutionSet(positions, found, within)
 
 
 TASK_SPACES = ("pose", "position_xy")

@@ -6,6 +6,7 @@ returned points (``fk_many``), not read from the diagnostics.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -441,6 +442,13 @@ class ElbowLosingUR5:
             sols.positions[keep], labels, sols.position_errors[keep],
             sols.orientation_errors[keep], sols.solver, sols.warnings, sols.outside_limits,
         )  # fmt: skip
+
+    def ik_many(self, Ts, seed, configuration=None):
+        path = self._robot.ik_many(Ts, seed, configuration)
+        kept = np.array([not self._cut(T) for T in Ts]) | (configuration != self._label)
+        return dataclasses.replace(
+            path, found=path.found & kept, within_limits=path.within_limits & kept
+        )
 
     def ik(self, T, seed, **kwargs):
         r = self._robot.ik(T, seed, **kwargs)

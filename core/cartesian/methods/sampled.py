@@ -1,6 +1,7 @@
 """The notes' first Cartesian method, ``sampled``: IK at points along the line, every point checked.
 
-``core.cartesian.walk`` walks the line; ``plan_sampled`` times the walked path with
+``core.cartesian.walk`` walks the line (``core.cartesian.walk_batch`` first tries it in one batch,
+for arms with configuration labels); ``plan_sampled`` times the walked path with
 ``core.cartesian.timing.time_path``, places the returned points (IK at each, seeded from the walk and
 checked to be on its branch; many points at once by batched Newton steps, ``_batch_solve``), and
 returns the planned prefix with ``fraction`` < 1 when ``allow_partial`` is set.
@@ -32,6 +33,7 @@ from core.cartesian.walk import (
     Walker,
     walk_line,
 )
+from core.cartesian.walk_batch import batch_walk
 from core.errors import (
     PlanningError,
     Singularity,
@@ -164,7 +166,7 @@ def _batch_chunk(
 def plan_sampled(task: CartesianTask) -> CartesianResult:
     """Plan ``task`` by sampled IK along the line (see the module docstring)."""
     line = validated_line(task)
-    walk = walk_line(task, line)
+    walk = batch_walk(task, line) or walk_line(task, line)
     failure, attempts = walk.failure, 0
     while True:
         if failure is not None and (not task.allow_partial or walk.end <= MIN_STEP):

@@ -14,8 +14,11 @@ from core.cartesian.check import check_labels, finish
 from core.cartesian.ik_on_path import on_label
 from core.cartesian.plan import plan
 from core.cartesian.task import CartesianResult, CartesianTask
+from core.cartesian.walk import walk_line
+from core.cartesian.walk_batch import batch_walk
 from core.errors import BranchFlip, Unreachable
 from core.trajectory import Trajectory
+from tests.core.conftest import registry_robot
 from tests.toy_kinematics import LabelledToy, ToyPlanar2R
 
 
@@ -90,3 +93,27 @@ def test_check_labels_finds_the_first_point_off_the_start_label():
         finish(task, result)
     allowed = CartesianTask(robot=toy, q_start=q[0], T_goal=toy.fk(q[-1]), allow_violations=True)
     assert any("down" in w for w in finish(allowed, result).warnings)
+
+
+def test_batch_walk_is_the_point_by_point_walk_where_the_line_is_clean():
+    """UR5: the batched walk (ik_many on the start's label) gives the walk's points to 1e-8 rad;
+    a line through the PUMA's wrist singularity and a line off the UR5's workspace are left to
+    the point-by-point walk (None)."""
+    ur5 = registry_robot("ur5")
+    q0 = np.array([0.0, -math.pi / 3, math.pi / 2, -2 * math.pi / 3, -math.pi / 2, 0.0])
+    qg = np.array([0.3, -1.2, 1.8, -2.2, -1.3, 0.4])
+    task = CartesianTask(robot=ur5, q_start=q0, T_goal=ur5.fk(qg))
+    fast, slow = batch_walk(task, task.line()), walk_line(task, task.line())
+    assert fast is not None and slow.failure is None
+    assert np.array_equal(fast.s, slow.s) and np.abs(fast.positions - slow.positions).max() < 1e-8
+    assert np.allclose(ur5.fk_many(fast.positions), task.line().poses(fast.s), atol=1e-9)
+    far = ur5.fk(q0)
+    far[0, 3] -= 0.8
+    off = CartesianTask(robot=ur5, q_start=q0, T_goal=far)
+    assert batch_walk(off, off.line()) is None
+    puma = registry_robot("puma560")
+    qa = np.array([0.0, 0.6, -2.6, 0.3, 0.25, 0.0])
+    wrist = CartesianTask(puma, qa, puma.fk(np.array([0.2, 0.7, -2.4, 0.32, -0.25, 0.0])))
+    assert batch_walk(wrist, wrist.line()) is None
+    toy = CartesianTask(robot=LabelledToy(), q_start=elbow(0.7, 0.5, 1.0), T_goal=at(1.0, 0.5))
+    assert batch_walk(toy, toy.line()) is None  # position_xy: the walk
