@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from scipy.interpolate import CubicHermiteSpline
 
 from core.cartesian.ik_on_path import label_change
 from core.cartesian.joint_limits import outside, over_speed
@@ -70,25 +71,32 @@ def check_labels(
     s: np.ndarray | None = None,
     deviation: DeviationReport | None = None,
 ) -> BranchFlip | None:
-    """``BranchFlip`` at the first returned point whose configuration label differs from the
-    start's (robots with labels; one batched ``configurations`` call). Its ``s``: from ``s`` (N,),
-    else the dense measurement's closest path parameter at that point. None when every point keeps
-    the start's label (or the robot has none). ``finish`` raises it, or with ``allow_violations``
-    returns the plan with it as a warning (the DLS may pass a singularity on purpose)."""
+    """``BranchFlip`` at the first returned point, or midpoint between two (the cubic Hermite
+    spline a controller follows, at the middle of each interval), whose configuration label differs
+    from the start's (robots with labels; one batched ``configurations`` call of 2N - 1 rows). Its
+    ``s``: from ``s`` (N,), else the dense measurement's closest path parameter at that point (a
+    midpoint: the mean of its ends'). None when every point keeps the start's label (or the robot
+    has none). ``finish`` raises it, or with ``allow_violations`` returns the plan with it as a
+    warning (the DLS may pass a singularity on purpose)."""
     label = task.robot.configuration(np.asarray(task.q_start, dtype=float))
     if label is None:
         return None
-    off = np.flatnonzero(np.array(task.robot.configurations(traj.positions)) != label)
+    q, n = traj.positions, len(traj.times)
+    if n > 1:
+        t_mid = 0.5 * (traj.times[:-1] + traj.times[1:])
+        mid = CubicHermiteSpline(traj.times, q, traj.velocities, axis=0)(t_mid)
+        q = np.insert(q, np.arange(1, n), mid, axis=0)  # p0, m0, p1, m1, ..., p_{n-1}
+    off = np.flatnonzero(np.array(task.robot.configurations(q)) != label)
     if not len(off):
         return None
-    i = int(off[0])
     if s is not None:
-        at = float(s[i])
-    elif deviation is not None and len(traj.times) > 1:
-        at = float(deviation.s[i * ((len(deviation.s) - 1) // (len(traj.times) - 1))])
+        at_points = np.asarray(s, dtype=float)
+    elif deviation is not None and n > 1:
+        at_points = deviation.s[:: (len(deviation.s) - 1) // (n - 1)]
     else:
-        at = 0.0
-    return label_change(at, label)
+        at_points = np.zeros(n)
+    k = int(off[0])
+    return label_change(float(0.5 * (at_points[k // 2] + at_points[(k + 1) // 2])), label)
 
 
 def measure(task: CartesianTask, traj: Trajectory) -> DeviationReport:

@@ -3,6 +3,12 @@
 branch (``solve_on_line``), continuation along the whole line (``continuation``) and goal
 configuration on the start's branch (``goal_configuration``). The ``sampled`` walk
 (``core.cartesian.walk``) and its batched solve use the same call, tolerance and test.
+
+Robots with configuration labels (``Kinematics.configuration``, issue 14) follow their start's
+label exactly: a solution on another label is never taken, and a pose where IK fails is decided
+from every solution of it (``on_label``): none at all is ``unreachable``, some only outside the
+joint limits ``joint_limit``, some only on other labels ``branch_flip`` (``label_change`` names a
+label change found on returned points). Robots without labels keep the jump-ratio tests above.
 """
 
 from __future__ import annotations

@@ -6,18 +6,18 @@ seeded where the Jacobian predicts the arm will be, q + dq/ds ds with dq/ds = J^
 twist per unit s), so the arm stays on one branch. A step that misbehaves is halved, down to
 ``MIN_STEP``; what still fails there is the failure, with its cause and s:
 
-- ``unreachable`` (Type I): no IK solution within ``IK_TOLERANCE`` (1e-6 m and rad);
+- ``unreachable`` (Type I): no IK solution within ``IK_TOLERANCE`` (1e-6 m and rad); with labels
+  (``robot.configuration``) exactly: ``ik_all`` has none (``ik_on_path.on_label``);
 - ``joint_limit``: the solution on the branch being followed leaves the joint limits (IK runs
   without clipping to the limits, so a redundant arm is not slid along a limit off its path);
-- ``branch_flip``: a joint step off the Jacobian's prediction by more than ``STRICT_BRANCH``
-  (``core.cartesian.ik_on_path.follows``) even for the smallest step (IK on another branch);
+- ``branch_flip``: with labels, the pose has solutions only with other labels than the start's, or
+  a walked point carries another label; without, a joint step off the Jacobian's prediction by
+  more than ``STRICT_BRANCH`` (``ik_on_path.follows``) even for the smallest step;
 - ``singularity`` (Type II): the smallest singular value of the task Jacobian is below
   ``SINGULAR_VALUE_THRESHOLD``, or joint rates need a slow-down below
   ``core.cartesian.timing.MIN_SPEED_FRACTION`` of the requested speed.
-
-``plan_sampled`` times the walked path with ``core.cartesian.timing.time_path``, places the returned
-points (IK at each, seeded from the walk and checked to be on its branch), and returns the planned
-prefix with ``fraction`` < 1 when ``allow_partial`` is set.
+``plan_sampled`` times the walked path, places the returned points and returns the planned prefix
+with ``fraction`` < 1 when ``allow_partial`` is set (``core.cartesian.methods.sampled``).
 """
 
 from __future__ import annotations

@@ -82,7 +82,7 @@ def test_a_line_losing_its_start_label_is_a_branch_flip_where_it_is_lost(method)
 
 def test_check_labels_finds_the_first_point_off_the_start_label():
     toy = LabelledToy()
-    q = np.array([[0.1, 0.3], [0.1, 0.1], [0.1, -0.1], [0.1, 0.2]])
+    q = np.array([[0.1, 0.3], [0.1, 0.2], [0.1, -0.1], [0.1, 0.2]])  # the middle of 2-3: 0.05
     traj = Trajectory(np.arange(4.0), q, np.zeros_like(q), np.zeros_like(q), toy.joint_names)
     task = CartesianTask(robot=toy, q_start=q[0], T_goal=toy.fk(q[-1]))
     flip = check_labels(task, traj, np.array([0.0, 0.3, 0.6, 1.0]))
@@ -117,3 +117,18 @@ def test_batch_walk_is_the_point_by_point_walk_where_the_line_is_clean():
     assert batch_walk(wrist, wrist.line()) is None
     toy = CartesianTask(robot=LabelledToy(), q_start=elbow(0.7, 0.5, 1.0), T_goal=at(1.0, 0.5))
     assert batch_walk(toy, toy.line()) is None  # position_xy: the walk
+
+
+def test_check_labels_between_points_on_the_controllers_spline():
+    """Both points 'down' (q2 = 0.3, 0.05) but the cubic Hermite spline through them with q2' =
+    -3, 0 rad/s dips to 0.175 - 3/8 = -0.2 rad (label 'up') at the middle of the interval."""
+    toy = LabelledToy()
+    q = np.array([[0.1, 0.3], [0.1, 0.05], [0.1, 0.2]])
+    v = np.zeros_like(q)
+    v[0, 1] = -3.0
+    traj = Trajectory(np.arange(3.0), q, v, np.zeros_like(q), toy.joint_names)
+    task = CartesianTask(robot=toy, q_start=q[0], T_goal=toy.fk(q[-1]))
+    flip = check_labels(task, traj, np.array([0.0, 0.4, 1.0]))
+    assert isinstance(flip, BranchFlip) and flip.s == pytest.approx(0.2, abs=1e-12)
+    v[0, 1] = -1.0  # dips to 0.175 - 1/8 = 0.05: stays 'down'
+    assert check_labels(task, Trajectory(traj.times, q, v, v * 0), np.array([0, 0.4, 1])) is None
