@@ -21,10 +21,11 @@ from core.errors import (
     BranchFlip,
     JointLimit,
     PlanningError,
+    Singularity,
     Unreachable,
 )
 from core.geometry import so3
-from core.kinematics import IKResult, Kinematics, task_rows
+from core.kinematics import IKResult, Kinematics, jacobians, task_rows
 from core.path.line import StraightLine
 
 IK_TOLERANCE = 1e-6
@@ -49,6 +50,10 @@ CONTINUATION_JOINT_STEP = 0.1
 LABEL_BOUNDARY = 1e-6
 """Smallest task-Jacobian singular value below which a solution lies on the singular set where
 labels change: it is the limit of every adjacent label's branch (``on_label``)."""
+NEAR_SINGULAR = 1e-3
+"""Smallest task-Jacobian singular value below which a pose without a solution in the start's
+label is a ``singularity`` (next to the singular set, IK may return representatives only), not a
+``branch_flip`` (``core.cartesian.walk.SINGULAR_VALUE_THRESHOLD``, the walk's threshold)."""
 MIN_CONTINUATION_STEP = 1e-5
 """Shortest continuation step [share of s]; a failure there is the line's failure."""
 
@@ -116,18 +121,26 @@ def on_label(
     solution with the start's configuration ``label`` nearest ``near`` (``kin.ik_all``: every
     solution), else why there is none -- ``Unreachable`` when the pose has no solution at all (off
     the workspace), ``JointLimit`` when it has some only outside the joint limits, ``BranchFlip``
-    when every solution carries another label (unless it is singular: on the boundary between
-    labels, ``LABEL_BOUNDARY``, it is returned)."""
+    when every solution carries another label -- unless one is singular: on the boundary between
+    labels (``LABEL_BOUNDARY``) it is returned, next to it (``NEAR_SINGULAR``) ``Singularity``."""
     sols = kin.ik_all(T, np.asarray(near, dtype=float))
     same = [i for i, c in enumerate(sols.configurations) if c == label]
     if same:
         return np.asarray(sols.positions[same[0]], dtype=float)
     where = f"at s={s:.4f}"
     if len(sols.positions):
-        q = np.asarray(sols.positions[0], dtype=float)
-        rows = task_rows(kin.task_space)
-        if np.linalg.svd(kin.jacobian(q)[rows], compute_uv=False)[-1] < LABEL_BOUNDARY:
-            return q  # on the singular set between labels: the limit of the start's branch too
+        J = jacobians(kin, np.asarray(sols.positions, dtype=float))[:, task_rows(kin.task_space)]
+        sigma = np.linalg.svd(J, compute_uv=False)[:, -1]
+        if sigma.min() < LABEL_BOUNDARY:  # on the singular set between labels: the limit of the
+            return np.asarray(sols.positions[int(np.argmin(sigma))], dtype=float)  # start's too
+        if sigma.min() < NEAR_SINGULAR:
+            return Singularity(
+                f"the pose {where} is next to a singularity (smallest singular value "
+                f"{sigma.min():.3g}) where IK finds no solution in the start's configuration "
+                f"({label}): the line passes the singular set there",
+                s=float(s),
+                extra={"min_singular_value": float(sigma.min())},
+            )
         others = ", ".join(sorted({str(c) for c in sols.configurations}))
         return BranchFlip(
             f"the pose {where} has IK solutions only in other configurations ({others}) than the "
@@ -253,7 +266,7 @@ def continuation(
         s_next = min(1.0, s + ds)
         try:
             q = solve_on_line(kin, line, s_next, q, strict=True, label=label)
-        except (BranchFlip, Unreachable, JointLimit) as err:
+        except (BranchFlip, Unreachable, JointLimit, Singularity) as err:
             if ds <= MIN_CONTINUATION_STEP:
                 err.extra["s_reached"] = s
                 raise

@@ -16,7 +16,7 @@ from core.cartesian.plan import plan
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.cartesian.walk import walk_line
 from core.cartesian.walk_batch import batch_walk
-from core.errors import BranchFlip, Unreachable
+from core.errors import BranchFlip, Singularity, Unreachable
 from core.trajectory import Trajectory
 from tests.core.conftest import registry_robot
 from tests.toy_kinematics import LabelledToy, ToyPlanar2R
@@ -132,3 +132,17 @@ def test_check_labels_between_points_on_the_controllers_spline():
     assert isinstance(flip, BranchFlip) and flip.s == pytest.approx(0.2, abs=1e-12)
     v[0, 1] = -1.0  # dips to 0.175 - 1/8 = 0.05: stays 'down'
     assert check_labels(task, Trajectory(traj.times, q, v, v * 0), np.array([0, 0.4, 1])) is None
+
+
+@pytest.mark.parametrize("method", ["sampled", "bounded_deviation", "bounded_deviation_nlp"])
+def test_a_line_through_the_wrist_singularity_is_a_singularity_for_every_method(method):
+    """PUMA 560: q5 from +0.3 to -0.3 rad with the other joints held is a line in the tool's
+    frame whose wrist passes q5 = 0 (axes 4 and 6 aligned) at s = 0.5 (by symmetry); the start's
+    wrist label could be kept only by a half turn of q4 and q6 there. The knot methods returned
+    200 through it with the wrist label flipped; now every method answers singularity there."""
+    puma = registry_robot("puma560")
+    qa = np.array([0.0, math.pi / 4, -math.pi, 0.0, 0.3, 0.0])
+    qb = qa * np.array([1, 1, 1, 1, -1, 1])
+    with pytest.raises(Singularity) as err:
+        plan(CartesianTask(robot=puma, q_start=qa, T_goal=puma.fk(qb)), method)
+    assert abs(err.value.s - 0.5) <= 0.01
