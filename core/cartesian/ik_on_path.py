@@ -285,6 +285,16 @@ def reference_at(reference: Knots | None, s: float) -> np.ndarray | None:
     return np.array([np.interp(s, reference.s, col) for col in reference.positions.T])
 
 
+def label_note(kin: Kinematics, q_start: np.ndarray, q_goal: np.ndarray) -> str:
+    """``"; goal.positions are <label>, the line keeps the start's <label>"`` when the two labels
+    differ (robots with labels), else ``""``: for the warning on a requested goal configuration."""
+    start = kin.configuration(np.asarray(q_start, dtype=float))
+    goal = kin.configuration(np.asarray(q_goal, dtype=float))
+    if start is None or goal == start:
+        return ""
+    return f"; goal.positions are {goal}, the line keeps the start's {start}"
+
+
 def goal_configuration(
     kin: Kinematics,
     line: StraightLine,
@@ -308,8 +318,8 @@ def goal_configuration(
             q,
             [
                 f"the line ends at the goal pose in another joint configuration than goal.positions "
-                f"(up to {gap:.3g} rad apart): the trajectory ends where the line leads, without a "
-                "branch flip"
+                f"(up to {gap:.3g} rad apart{label_note(kin, q_start, q_hint)}): the trajectory "
+                "ends where the line leads, without a branch flip"
             ],
             reference,
         )

@@ -468,3 +468,24 @@ def test_ur5_line_that_needs_another_configuration_is_a_branch_flip_at_its_s(
     monkeypatch.setattr(registry, "resolve", lambda ref: fake)
     body = problem(client.post(URL, json=ur5_outward_line(method, 0.1)), 422, "branch_flip")
     assert abs(body["s"] - 0.6) <= 0.01, body
+
+
+@pytest.mark.parametrize("method", LABELLED_METHODS)
+def test_goal_positions_in_another_configuration_are_named_in_the_warning(client, method):
+    """goal.positions on another label than the start's: the line keeps the start's and ends on
+    the start label's solution of the goal pose (FK equal to the goal pose, label the start's)."""
+    robot = registry.get("ur5")
+    start = robot.configuration(np.array(UR5_HOME))
+    T_goal = robot.fk(np.array(UR5_GOAL))
+    sols = robot.ik_all(T_goal, np.array(UR5_GOAL))
+    other = next(q for q, c in zip(sols.positions, sols.configurations, strict=True) if c != start)
+    request = {**UR5_LINE, "goal": {"positions": other.tolist()}, "method": method}
+    response = client.post(URL, json=request)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    note = f"goal.positions are {robot.configuration(other)}, the line keeps the start's {start}"
+    warnings = body["diagnostics"]["warnings"]
+    assert any(note in w for w in warnings), warnings
+    end = np.array(body["points"][-1]["positions"])
+    assert robot.configuration(end) == start
+    assert np.abs(robot.fk(end) - T_goal).max() <= 1e-6

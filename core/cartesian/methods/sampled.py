@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from core.cartesian.check import finish
-from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows
+from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
 from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
@@ -254,8 +254,9 @@ def _timed_result(
         elif gap > GOAL_BRANCH_WARNING:
             warnings.append(
                 f"the line ends at the goal pose in another joint configuration than "
-                f"goal.positions (up to {gap:.3g} rad apart); the trajectory ends where the line "
-                "leads, without a branch flip"
+                f"goal.positions (up to {gap:.3g} rad apart"
+                f"{label_note(robot, task.q_start, task.q_goal)}); the trajectory ends where the "
+                "line leads, without a branch flip"
             )
     result = CartesianResult(
         trajectory=traj,
