@@ -209,7 +209,7 @@ class Walker:
                 reached = reached or (q, pred, step)
         if self.label is not None:
             exact = self.exact(s, T, seeds[0])
-            if not isinstance(exact, BranchFlip) or reached is None:
+            if not isinstance(exact, BranchFlip) or reached is None or self.inside(reached[1]):
                 return exact
         if reached is not None:
             q, pred, step = reached

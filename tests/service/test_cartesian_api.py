@@ -468,6 +468,7 @@ def test_ur5_line_that_needs_another_configuration_is_a_branch_flip_at_its_s(
     monkeypatch.setattr(registry, "resolve", lambda ref: fake)
     body = problem(client.post(URL, json=ur5_outward_line(method, 0.1)), 422, "branch_flip")
     assert abs(body["s"] - 0.6) <= 0.01, body
+    assert f"than the start's ({fake._label})" in body["detail"], body
 
 
 @pytest.mark.parametrize("method", LABELLED_METHODS)
