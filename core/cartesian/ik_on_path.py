@@ -187,7 +187,8 @@ def solve_on_line(
     ``STRICT_BRANCH`` of the predicted configuration. Raises ``BranchFlip`` when IK converges only on
     another branch, ``JointLimit`` when only outside the joint limits, ``Unreachable`` when not at
     all; each with ``s``. With the start's configuration ``label`` (robots with labels) a solution
-    must also carry it, and the failure is decided exactly by ``on_label``.
+    must also carry it (``strict`` callers check it afterwards, in a batch), and the failure is
+    decided exactly by ``on_label``.
     """
     T = line.pose(s)
     seed = np.asarray(seed, dtype=float)
@@ -207,7 +208,9 @@ def solve_on_line(
             outcome = "joint_limit" if outcome == "unreachable" else outcome
             continue
         q = np.asarray(res.positions, dtype=float)
-        if (label is None or kin.configuration(q) == label) and _on_branch(q, anchors, strict):
+        # strict (short continuation steps): the label is checked in one batch at the end
+        keeps = label is None or strict or kin.configuration(q) == label
+        if keeps and _on_branch(q, anchors, strict):
             return q
         outcome = "branch_flip"
     where = f"at s={s:.4g}"
@@ -275,6 +278,23 @@ def continuation(
         s, halved = s_next, min(1.0, 2.0 * halved)
         s_list.append(s)
         q_list.append(q)
+    if label is not None:  # the start's label at every point, in one batch
+        off = np.flatnonzero(np.array(kin.configurations(np.array(q_list))) != label)
+        if len(off):
+            i = int(off[0])
+            pair = np.array(q_list[i - 1 : i + 1])
+            J = jacobians(kin, pair)[:, task_rows(kin.task_space)]
+            sigma = float(np.linalg.svd(J, compute_uv=False)[:, -1].min())
+            err: PlanningError = label_change(s_list[i], label)
+            if sigma < NEAR_SINGULAR:  # the label changed through the singular set
+                err = Singularity(
+                    f"the line passes a singularity at s={s_list[i]:.4g} (smallest singular "
+                    f"value {sigma:.3g}) where the arm leaves the start's configuration ({label})",
+                    s=float(s_list[i]),
+                    extra={"min_singular_value": sigma},
+                )
+            err.extra["s_reached"] = s_list[i - 1]
+            raise err
     return Knots(np.array(s_list), np.array(q_list))
 
 
