@@ -170,6 +170,16 @@ class Kinematics(Protocol):
         tells a solution reachable only outside them from no solution)."""
         ...
 
+    @property
+    def jerk_limits(self) -> np.ndarray | None:
+        """Jerk limits ``(dof,)`` [rad/s^3 or m/s^3], or None where none are known."""
+        ...
+
+    @property
+    def configuration_labels(self) -> tuple[str, ...]:
+        """Every configuration label this robot's IK solutions can carry (empty: no labels)."""
+        ...
+
     def configuration(self, q: np.ndarray) -> str | None:
         """The configuration label (IK branch) of ``q`` (dof,), None for robots without labels."""
         ...
@@ -226,6 +236,11 @@ class DerivedKinematics:
 
     def fk_jacobian_loop(self) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
         return self.fk_jacobian
+
+    jerk_limits: np.ndarray | None = None
+    """No jerk limits known."""
+    configuration_labels: tuple[str, ...] = ()
+    """No labels."""
 
     def configuration(self, q: np.ndarray) -> str | None:
         """No labels: core keeps its jump-ratio branch test for such a model."""

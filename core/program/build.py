@@ -78,7 +78,7 @@ def _ptp_goal(task: ProgramTask, i: int, seg: Segment, q: np.ndarray) -> np.ndar
                 field=("segments", i, "goal", "positions"),
             )
         return goal
-    labels = tuple(getattr(robot, "configuration_labels", ()) or ())
+    labels = tuple(robot.configuration_labels)
     if seg.configuration is not None and not labels:
         raise InputError(
             "this robot has no configuration labels",
@@ -90,15 +90,7 @@ def _ptp_goal(task: ProgramTask, i: int, seg: Segment, q: np.ndarray) -> np.ndar
             field=("segments", i, "goal", "configuration"),
             extra={"configurations": list(labels)},
         )
-    ik_all = getattr(robot, "ik_all", None)
-    if ik_all is None:  # a kinematics without every-solution IK: the nearest one
-        r = robot.ik(seg.goal_pose, q)
-        if not r.success:
-            raise _tag(
-                Unreachable(f"no IK solution for segment {i}'s goal pose within limits"), i, 1.0
-            )
-        return np.asarray(r.positions, dtype=float)
-    sols = ik_all(seg.goal_pose, q)
+    sols = robot.ik_all(seg.goal_pose, q)
     if len(sols.positions) == 0:
         raise _tag(Unreachable(f"no IK solution for segment {i}'s goal pose within limits"), i, 1.0)
     Q = np.asarray(sols.positions, dtype=float)
@@ -140,10 +132,9 @@ def _keep_label(robot, w: Walk) -> Walk:
 def _label_change(robot, q: np.ndarray) -> int | None:
     """Index of the first row of ``q`` (K, dof) whose configuration label differs from row 0's,
     or None (also for robots without labels)."""
-    labels_of = getattr(robot, "configurations", None)
-    if labels_of is None or len(q) < 2:
+    if len(q) < 2:
         return None
-    labels = labels_of(q)
+    labels = robot.configurations(q)
     if labels[0] is None:
         return None
     bad = [k for k, c in enumerate(labels) if c != labels[0]]

@@ -178,7 +178,7 @@ def _profile_time(task: ProgramTask, chunk: list[_Piece], kind: str) -> ProfileT
         velocity=np.asarray(robot.velocity_limits, dtype=float) * seg.velocity_scale,
         acceleration=np.asarray(robot.acceleration_limits, dtype=float) * seg.acceleration_scale,
         position=np.asarray(robot.position_limits, dtype=float),
-        jerk=getattr(robot, "jerk_limits", None),
+        jerk=robot.jerk_limits,
     )
     try:
         plan = plan_joint(

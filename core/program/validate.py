@@ -76,7 +76,7 @@ def layout(task: ProgramTask) -> Layout:
                     f"profile must be one of {', '.join(PTP_PROFILES)} (PTP segments only)",
                     field=("segments", i, "profile"),
                 )
-            if seg.profile == "jerk_limited" and getattr(robot, "jerk_limits", None) is None:
+            if seg.profile == "jerk_limited" and robot.jerk_limits is None:
                 raise InputError(
                     f"the jerk_limited profile needs the robot's jerk limits; {robot.name} "
                     "publishes none",

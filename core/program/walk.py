@@ -12,7 +12,6 @@ for one, so a caller can keep a partial plan.
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -66,11 +65,7 @@ def walk(
     rows = task_rows(robot.task_space)
     lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
     span = np.maximum(hi - lo, 1.0)
-    try:
-        roam = "respect_limits" in inspect.signature(robot.ik).parameters
-    except (TypeError, ValueError):
-        roam = False
-    options = {"respect_limits": False} if roam else {}
+    options = {"respect_limits": False}
     names = robot.joint_names
 
     q = np.asarray(q0, dtype=float)
