@@ -21,6 +21,9 @@ from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names
 
 __all__ = ["PROFILES", "JointPlan", "PointToPoint", "State", "plan_joint"]
 
+NO_LIMITS = JointLimits()
+"""No limit known (every one infinite)."""
+
 
 class JointPlan(NamedTuple):
     """A planned move: the sampled ``trajectory`` (with the profile's exact peaks), the
@@ -53,7 +56,7 @@ def plan_joint(
     otherwise). Sampling as ``sample_times``. ``deadline`` is checked after the timing and after
     the sampling (``TimeBudgetExceeded``).
     """
-    limits = limits or JointLimits()
+    limits = limits or NO_LIMITS
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
     spec = PROFILES.get(kind)
     if spec is None:
