@@ -70,7 +70,8 @@ def plan_joint(
     times = sample_times(profile.duration, sample_period, samples, max_points)
     trajectory = Trajectory.from_profile(profile, times, names)
     deadline.check("joint profile sampling")
-    check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
+    if limits.velocity is not None or limits.acceleration is not None or limits.jerk is not None:
+        check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
     check_positions(trajectory.positions, limits, names, times=times)
     return JointPlan(trajectory, profile, spec.warnings(motion))
 
