@@ -49,14 +49,6 @@ _REST_COLUMNS = {name: np.array(k)[:, None] for name, k in REST_PEAKS.items()}
 
 
 @functools.cache
-def _stacked_derivatives(m: int) -> np.ndarray:
-    """``_derivatives(m)`` as one ``(3 m, m)`` matrix: the three orders in one product."""
-    out = _derivatives(m).reshape(3 * m, m).copy()
-    out.flags.writeable = False
-    return out
-
-
-@functools.cache
 def _derivatives(m: int) -> np.ndarray:
     """``(3, m, m)``: coefficients (highest power first) of a degree ``m - 1`` polynomial to those of
     its value, first and second derivatives, each padded with leading zeros to ``m`` rows."""
@@ -129,15 +121,17 @@ class PolynomialProfile(EndPinned):
         return self._evaluate_powers(self._powers(t), order)
 
     def _evaluate_orders(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
-        # The three orders are one (N, m) @ (m, 3 dof) product on the shared powers: the
-        # derivatives' coefficients, divided by T^order, padded with leading zeros to line up with
-        # the powers, side by side. Each order is an (N, dof) column block of the product.
-        m, dof = self.coeffs.shape
+        # The three orders are one stacked product (N, m) @ (3, m, dof) on the shared powers (one
+        # call, numpy loops over the three BLAS products), written as three C-contiguous (N, dof)
+        # blocks: the derivatives' coefficients, divided by T^order, padded with leading zeros to
+        # line up with the powers.
+        m = self.coeffs.shape[0]
         T = self.duration
-        scaled = (_stacked_derivatives(m) @ self.coeffs).reshape(3, m, dof)
-        scaled *= np.array([1.0, 1.0 / T, 1.0 / T**2])[:, None, None]
-        out = self._powers(t).T @ scaled.transpose(1, 0, 2).reshape(m, 3 * dof)
-        return out[:, :dof], out[:, dof : 2 * dof], out[:, 2 * dof :]
+        scaled = (
+            _derivatives(m) * np.array([1.0, 1.0 / T, 1.0 / T**2])[:, None, None]
+        ) @ self.coeffs
+        out = self._powers(t).T @ scaled
+        return out[0], out[1], out[2]
 
     def _powers(self, t: np.ndarray) -> np.ndarray:
         """Powers of ``s = t / T`` as ``(m, N)`` rows, highest first (the long axis innermost)."""
