@@ -14,6 +14,7 @@ Units: [rad or m], per [s], per [s^2], per [s^3]; arrays ``(dof,)`` or ``(N, dof
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -45,7 +46,9 @@ def joint_vector(
     arr = np.asarray(value, dtype=float)
     if arr.shape != (dof,):
         raise InputError(f"{_dotted(field)} needs {dof} values, one per joint", field=field)
-    if not np.isfinite(arr).all():
+    # A finite dot product means every value is finite (NaN and inf propagate); an overflowing
+    # one is settled by the exact check.
+    if not math.isfinite(arr @ arr) and not np.isfinite(arr).all():
         raise InputError(f"{_dotted(field)} must hold finite numbers", field=field)
     return arr
 

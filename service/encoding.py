@@ -30,6 +30,7 @@ from core.budget import Deadline
 from core.errors import Infeasible, TooLarge
 from core.trajectory import Trajectory
 from service.errors import Overloaded
+from service.points_json import PointsJSON, encode_default
 
 JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
@@ -96,6 +97,8 @@ def trajectory_body(
     diagnostics: dict[str, Any],
     time_format: str = "float",
     layout: str | None = None,
+    *,
+    encoded: bool = False,
     **extra: Any,
 ) -> dict[str, Any]:
     """The response document: ``joint_names``, the samples, ``diagnostics`` and any extra keys.
@@ -104,6 +107,8 @@ def trajectory_body(
         layout: ``points`` (default: ROS-shaped ``points``, one object per sample) or ``columns``
             (``"layout": "columns"`` and the four arrays of ``trajectory_columns`` at the top
             level); ``None`` takes the request's ``?layout=`` (``RESPONSE_POLICY``).
+        encoded: ``points`` as a ``PointsJSON`` (the same bytes from ``json_response``, written
+            straight from the arrays) instead of a list of dicts; for a document only encoded.
     """
     layout = layout or current_policy().layout
     body: dict[str, Any] = {"joint_names": list(traj.joint_names)}
@@ -111,7 +116,9 @@ def trajectory_body(
         body["layout"] = "columns"
         body.update(trajectory_columns(traj, time_format))
     else:
-        body["points"] = trajectory_points(traj, time_format)
+        body["points"] = (
+            PointsJSON(traj, time_format) if encoded else trajectory_points(traj, time_format)
+        )
     body["diagnostics"] = diagnostics
     body.update(extra)
     return body
@@ -228,7 +235,7 @@ def estimate_bytes(body: Any) -> int:
 
 def _samples(body: dict[str, Any]) -> int:
     points = body.get("points")
-    if isinstance(points, list):
+    if isinstance(points, list | PointsJSON):
         return len(points)
     times = body.get("time_from_start")
     return len(times) if isinstance(times, list | np.ndarray) else 0
@@ -239,6 +246,8 @@ def _row_width(body: dict[str, Any]) -> int:
     if isinstance(positions, np.ndarray) and positions.ndim == 2:
         return int(positions.shape[1])
     points = body.get("points") or [{}]
+    if isinstance(points, PointsJSON):
+        return points.dof
     return len(points[0].get("positions", ())) if isinstance(points[0], dict) else 0
 
 
@@ -269,7 +278,7 @@ def json_response(body: Any, status_code: int = 200) -> Response:
         )
     else:
         response = _AdmittedResponse(
-            orjson.dumps(body, option=JSON_OPTIONS),
+            orjson.dumps(body, default=encode_default, option=JSON_OPTIONS),
             status_code=status_code,
             media_type="application/json",
         )
@@ -310,11 +319,14 @@ def _stream(body: dict[str, Any]) -> Iterator[bytes]:
     for i, (key, value) in enumerate(body.items()):
         yield (b"," if i else b"") + orjson.dumps(key) + b":"
         if key != "points" and not (key in COLUMNS and len(value) > STREAM_POINTS):
-            yield orjson.dumps(value, option=JSON_OPTIONS)
+            yield orjson.dumps(value, default=encode_default, option=JSON_OPTIONS)
             continue
         yield b"["
         for start in range(0, len(value), STREAM_POINTS):
-            chunk = orjson.dumps(value[start : start + STREAM_POINTS], option=JSON_OPTIONS)
+            if isinstance(value, PointsJSON):
+                chunk = value.encode(start, start + STREAM_POINTS)
+            else:
+                chunk = orjson.dumps(value[start : start + STREAM_POINTS], option=JSON_OPTIONS)
             yield (b"," if start else b"") + chunk[1:-1]
         yield b"]"
     yield b"}"

@@ -21,6 +21,9 @@ from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names
 
 __all__ = ["PROFILES", "JointPlan", "PointToPoint", "State", "plan_joint"]
 
+NO_LIMITS = JointLimits()
+"""No limit known (every one infinite)."""
+
 
 class JointPlan(NamedTuple):
     """A planned move: the sampled ``trajectory`` (with the profile's exact peaks), the
@@ -53,7 +56,7 @@ def plan_joint(
     otherwise). Sampling as ``sample_times``. ``deadline`` is checked after the timing and after
     the sampling (``TimeBudgetExceeded``).
     """
-    limits = limits or JointLimits()
+    limits = limits or NO_LIMITS
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
     spec = PROFILES.get(kind)
     if spec is None:
@@ -67,7 +70,8 @@ def plan_joint(
     times = sample_times(profile.duration, sample_period, samples, max_points)
     trajectory = Trajectory.from_profile(profile, times, names)
     deadline.check("joint profile sampling")
-    check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
+    if limits.velocity is not None or limits.acceleration is not None or limits.jerk is not None:
+        check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
     check_positions(trajectory.positions, limits, names, times=times)
     return JointPlan(trajectory, profile, spec.warnings(motion))
 

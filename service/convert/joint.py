@@ -117,4 +117,4 @@ def trajectory_response(
     diag = base_diagnostics(trajectory, method, (time.perf_counter() - started) * 1e3)
     diag["warnings"] = list(warnings)
     diag.update(diagnostics)
-    return json_response(trajectory_body(trajectory, diag, time_format))
+    return json_response(trajectory_body(trajectory, diag, time_format, encoded=True))

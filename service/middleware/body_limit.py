@@ -38,7 +38,9 @@ class BodyLimitMiddleware:
         size = 0
         while True:
             try:
-                message = await asyncio.wait_for(receive(), self.timeout_s)
+                # A timer handle, not the task asyncio.wait_for creates for every piece.
+                async with asyncio.timeout(self.timeout_s):
+                    message = await receive()
             except TimeoutError:
                 await self._timeout(scope, receive, send)
                 return

@@ -91,7 +91,7 @@ class ProfileKind:
     def warnings(self, motion: PointToPoint) -> tuple[str, ...]:
         """Things a client should know about this profile of ``motion``."""
         out = []
-        if motion.goal.velocities.any():
+        if np.count_nonzero(motion.goal.velocities):
             out.append(durations.NONZERO_END_VELOCITY)
         return tuple(out)
 

@@ -45,6 +45,9 @@ _CUBIC_INVERSE = np.linalg.inv(CUBIC_MATRIX)
 _QUINTIC_INVERSE = np.linalg.inv(QUINTIC_MATRIX)
 
 
+_REST_COLUMNS = {name: np.array(k)[:, None] for name, k in REST_PEAKS.items()}
+
+
 @functools.cache
 def _derivatives(m: int) -> np.ndarray:
     """``(3, m, m)``: coefficients (highest power first) of a degree ``m - 1`` polynomial to those of
@@ -58,6 +61,8 @@ def _derivatives(m: int) -> np.ndarray:
 
 def _solve(inverse: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """``tensordot(inverse, rhs, axes=1)``: coefficients ``(m, ...)`` from boundary values."""
+    if rhs.ndim == 2:
+        return inverse @ rhs
     return (inverse @ rhs.reshape(rhs.shape[0], -1)).reshape(rhs.shape)
 
 
@@ -81,46 +86,60 @@ class PolynomialProfile(EndPinned):
         a0: np.ndarray | None = None,
         a1: np.ndarray | None = None,
     ) -> None:
-        T = np.asarray(duration, dtype=float)
-        self.duration = float(T) if T.ndim == 0 else np.nan
-        if T.ndim == 0:
-            T = self.duration  # a Python float multiplies arrays faster than a 0-d array
+        T = duration if isinstance(duration, float) else np.asarray(duration, dtype=float)
+        scalar = isinstance(T, float) or T.ndim == 0
+        if scalar:
+            T = float(T)  # a Python float multiplies arrays faster than a 0-d array
+        self.duration = T if scalar else np.nan
         self._T = T
-        stack = np.array if np.ndim(T) == 0 else lambda rows: np.stack(np.broadcast_arrays(*rows))
+        self._peaks: Peaks | None = None
+        if scalar:
+            # One stack and one scaling by (1, T, T^2) per row: the same products as scaling
+            # each rate, in two array operations.
+            if a0 is None or a1 is None:
+                rhs = np.array([q0, v0, q1, v1]) * np.array([[1.0], [T], [1.0], [T]])
+            else:
+                T2 = T**2
+                rhs = np.array([q0, q1, v0, v1, a0, a1]) * np.array(
+                    [[1.0], [1.0], [T], [T], [T2], [T2]]
+                )
+        elif a0 is None or a1 is None:
+            rhs = np.stack(np.broadcast_arrays(q0, v0 * T, q1, v1 * T))
+        else:
+            rhs = np.stack(np.broadcast_arrays(q0, q1, v0 * T, v1 * T, a0 * T**2, a1 * T**2))
         if a0 is None or a1 is None:
-            rhs = stack([q0, v0 * T, q1, v1 * T])
             self.coeffs = _solve(_CUBIC_INVERSE, rhs)
             self._start, self._goal = (q0, v0, None), (q1, v1, None)
-            self._at_rest = not (rhs[1].any() or rhs[3].any())
+            self._at_rest = not (np.count_nonzero(rhs[1]) or np.count_nonzero(rhs[3]))
         else:
-            rhs = stack([q0, q1, v0 * T, v1 * T, a0 * T**2, a1 * T**2])
             self.coeffs = _solve(_QUINTIC_INVERSE, rhs)
             self._start, self._goal = (q0, v0, a0), (q1, v1, a1)
-            self._at_rest = not rhs[2:].any()
+            self._at_rest = not np.count_nonzero(rhs[2:])
         self.method = "cubic" if a0 is None else "quintic"
 
     def _evaluate(self, t: np.ndarray, order: int) -> np.ndarray:
         return self._evaluate_powers(self._powers(t), order)
 
     def _evaluate_orders(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
-        # Each order is one (N, m) @ (m, dof) product on the shared powers, written C-contiguous
-        # (N, dof): the derivatives' coefficients, divided by T^order, padded with leading zeros
-        # to line up with the powers.
+        # The three orders are one stacked product (N, m) @ (3, m, dof) on the shared powers (one
+        # call, numpy loops over the three BLAS products), written as three C-contiguous (N, dof)
+        # blocks: the derivatives' coefficients, divided by T^order, padded with leading zeros to
+        # line up with the powers.
         m = self.coeffs.shape[0]
         T = self.duration
         scaled = (
             _derivatives(m) * np.array([1.0, 1.0 / T, 1.0 / T**2])[:, None, None]
         ) @ self.coeffs
-        powers = self._powers(t).T
-        return tuple(powers @ scaled[order] for order in range(3))
+        out = self._powers(t).T @ scaled
+        return out[0], out[1], out[2]
 
     def _powers(self, t: np.ndarray) -> np.ndarray:
         """Powers of ``s = t / T`` as ``(m, N)`` rows, highest first (the long axis innermost)."""
-        s = t / self.duration
         m = self.coeffs.shape[0]
-        powers = np.empty((m, s.size))
+        powers = np.empty((m, t.size))
         powers[m - 1] = 1.0
-        for i in range(m - 2, -1, -1):
+        s = np.divide(t, self.duration, out=powers[m - 2])
+        for i in range(m - 3, -1, -1):
             np.multiply(powers[i + 1], s, out=powers[i])
         return powers
 
@@ -134,11 +153,20 @@ class PolynomialProfile(EndPinned):
     def peaks(self) -> Peaks:
         """Exact largest |velocity|, |acceleration| and |jerk| over ``[0, T]``, each
         ``(..., dof)``: closed forms rest to rest (``REST_PEAKS``), else the extrema of the
-        derivatives found by ``abs_peak_on_unit``."""
+        derivatives found by ``abs_peak_on_unit``. Computed once per profile."""
+        if self._peaks is None:
+            self._peaks = self._exact_peaks()
+        return self._peaks
+
+    def _exact_peaks(self) -> Peaks:
         if self._at_rest:
             dq = np.abs(self.coeffs[:-1].sum(axis=0))  # |q(1) - q(0)|
+            T = self._T
+            if np.ndim(T) == 0:  # the three peaks as one (3, dof) product and quotient
+                rows = _REST_COLUMNS[self.method] * dq / np.array([[T], [T**2], [T**3]])
+                return Peaks(rows[0], rows[1], rows[2])
             k = REST_PEAKS[self.method]
-            return Peaks(k[0] * dq / self._T, k[1] * dq / self._T**2, k[2] * dq / self._T**3)
+            return Peaks(k[0] * dq / T, k[1] * dq / T**2, k[2] * dq / T**3)
         vel = abs_peak_on_unit(polyder(self.coeffs, 1)) / self._T
         acc = abs_peak_on_unit(polyder(self.coeffs, 2)) / self._T**2
         jerk = abs_peak_on_unit(polyder(self.coeffs, 3)) / self._T**3
