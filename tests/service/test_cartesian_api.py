@@ -349,11 +349,12 @@ def rim_s(p0, p1, reach: float = 1.8) -> float:
     return float((-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a))
 
 
-@pytest.mark.parametrize("method", LABELLED_METHODS)
+@pytest.mark.parametrize("method", (*LABELLED_METHODS, "resolved_rate", "resolved_rate_dls"))
 @pytest.mark.parametrize("elbow", [1.0, -1.0])
 @pytest.mark.parametrize(
     ("p0", "p1"),
     [
+        ((0.3, 0.8), (2.5, 0.0)),
         ((1.0, 0.0), (3.0, 0.0)),
         ((0.0, 1.0), (0.0, 3.0)),
         ((0.5, 0.0), (2.1, 0.0)),

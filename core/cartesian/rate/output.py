@@ -26,6 +26,7 @@ from core.cartesian.check import finish
 from core.cartesian.partial import partial_warning
 from core.cartesian.rate.control import GOAL_FRACTION, RateRun
 from core.cartesian.rate.qp import SINGULAR_REGION
+from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.trajectory import Trajectory, sample_times
 
@@ -35,10 +36,13 @@ _CHUNK = 20_000
 
 
 def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult:
-    """The finished result of ``run``; raises ``run.failure`` unless ``task.allow_partial``."""
+    """The finished result of ``run``; raises ``run.failure`` unless ``task.allow_partial``
+    (a stall at the workspace's rim restated as ``unreachable``: ``controller_exit``)."""
+    line = task.line()
+    if run.failure is not None:
+        run = replace(run, failure=controller_exit(task.robot, line, run.failure, task.deadline))
     if run.failure is not None and not task.allow_partial:
         raise run.failure
-    line = task.line()
     last = len(run.s) - 1
     if run.failure is None:
         m, fraction = last, 1.0
