@@ -635,6 +635,25 @@ class CollisionChecker:
         return rows[:limit]
 
 
+def link_shapes(
+    robot: Robot, geometry: RobotCollision
+) -> list[tuple[str, float, float, np.ndarray]]:
+    """Each capsule as ``(link, radius [m], length [m], T_link_shape (4, 4))``: the shape's centre and
+    its z axis along the segment, in the frame of ``link`` (the inverse of ``_attach``); length 0 is a
+    sphere. The form of ``collision_geometry`` in a robot's description."""
+    model = robot.model
+    rows = []
+    for i, link in enumerate(geometry.links):
+        M_inv = model.frames[model.getFrameId(link)].placement.inverse()
+        a, b = M_inv.act(geometry.a[i]), M_inv.act(geometry.b[i])
+        length = float(np.linalg.norm(b - a))
+        z = (b - a) / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = _frame_with_z(z), (a + b) / 2
+        rows.append((link, float(geometry.radius[i]), length if length > 1e-12 else 0.0, T))
+    return rows
+
+
 def _frame_with_z(z: np.ndarray) -> np.ndarray:
     """A rotation whose third column is the unit vector ``z``."""
     x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])

@@ -412,3 +412,62 @@ def test_program_collision_names_its_segment_and_s(client) -> None:
     assert doc["diagnostics"]["failure"]["segment"] == 1
     a, b, r = tool_capsule(doc["points"][-1]["positions"])
     assert point_segment(center, a, b) - r - R >= 0
+
+
+def shape_ends(entry: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The hemisphere centres of a described shape, in its link frame (origin +- length/2 along z)."""
+    T = Pose(**entry["origin"]).as_matrix()
+    half = entry["shape"].get("length", 0.0) / 2
+    return T[:3, 3] - half * T[:3, 2], T[:3, 3] + half * T[:3, 2]
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "puma560"])
+def test_robot_description_carries_the_collision_geometry(client, name: str) -> None:
+    """GET /v1/robots/{name}: one shape per capsule of ``robots.geometry``, same link, radius and
+    segment (link frame), in order; the allowed pairs are those of ``collision_description``."""
+    doc = client.get(f"/v1/robots/{name}").json()
+    capsules = ROBOT_GEOMETRY[name].capsules
+    assert len(doc["collision_geometry"]) == len(capsules)
+    for entry, c in zip(doc["collision_geometry"], capsules, strict=True):
+        assert entry["link"] == c.link and entry["shape"]["radius"] == c.radius
+        p, q = shape_ends(entry)
+        a, b = np.array(c.a), np.array(c.b)
+        assert entry["shape"]["type"] == ("sphere" if np.allclose(a, b, atol=1e-12) else "capsule")
+        np.testing.assert_allclose(p, a, atol=1e-9)
+        np.testing.assert_allclose(q, b, atol=1e-9)
+    allowed = collision_description(name)["allowed_self_collisions"]
+    assert doc["allowed_self_collisions"] == allowed
+    assert all(pair == sorted(pair) for pair in allowed)
+    same = client.post("/v1/robots/describe", json={"robot": name}).json()
+    assert same["collision_geometry"] == doc["collision_geometry"]
+
+
+def test_inline_description_encloses_the_urdf_primitives(client) -> None:
+    """POST /v1/robots/describe with an inline URDF: the box of l1 (origin x = 0.25, 0.5 long) is
+    enclosed by a capsule along x through the box's centre; a sphere stays a sphere at its origin."""
+    urdf = """<robot name="arm">
+      <link name="base"/>
+      <link name="l1"><collision><origin xyz="0.25 0 0"/><geometry><box size="0.5 0.06 0.06"/>
+        </geometry></collision></link>
+      <link name="l2"><collision><origin xyz="0.1 0.02 0"/><geometry><sphere radius="0.04"/>
+        </geometry></collision></link>
+      <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+        <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+      <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+        <origin xyz="0.5 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+    </robot>"""
+    robot = {"urdf": urdf, "tip_frame": "l2", "base_frame": "base"}
+    doc = client.post("/v1/robots/describe", json={"robot": robot}).json()
+    box, sphere = doc["collision_geometry"]
+    assert box["link"] == "l1" and box["shape"]["type"] == "capsule"
+    p, q = shape_ends(box)
+    assert abs(p[1]) < 1e-12 and abs(p[2]) < 1e-12 and abs(q[1]) < 1e-12 and abs(q[2]) < 1e-12
+    np.testing.assert_allclose((p + q) / 2, [0.25, 0.0, 0.0], atol=1e-12)
+    # enclosing: the capsule covers the box's corners (and its end faces' corners)
+    r = box["shape"]["radius"]
+    for x in (0.0, 0.5):
+        corner = np.array([x, 0.03, 0.03])
+        assert point_segment(corner, p, q) <= r + 1e-12
+    assert sphere["link"] == "l2" and sphere["shape"] == {"type": "sphere", "radius": 0.04}
+    np.testing.assert_allclose(sphere["origin"]["position"], [0.1, 0.02, 0.0], atol=1e-12)
+    assert doc["allowed_self_collisions"] == [["l1", "l2"]]
