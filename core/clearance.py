@@ -101,3 +101,54 @@ def velocity_damper_rows(
     G = -np.einsum("pi,pij->pj", n[active], Jp[active])
     h = xi * (d[active] - d_safe) / (d_influence - d_safe) / dt
     return DamperRows(G, h, active)
+
+
+CLEARANCE_MARGIN = 2e-3
+"""[m] The linearized clearance rows of the knot NLP ask for this much beyond each pair's threshold
+(the linearization errs by the curvature of the distance over one trust-region step)."""
+CLEARANCE_INFLUENCE = 0.05
+"""[m] Pairs farther than this beyond the largest threshold give no linearized row."""
+
+
+def linearized_clearance_rows(
+    clearance: Clearance,
+    qs: np.ndarray,
+    *,
+    margin: float = CLEARANCE_MARGIN,
+    influence: float = CLEARANCE_INFLUENCE,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """First-order clearance constraints about the configurations ``qs`` ``(M, dof)``.
+
+    For configuration j and every pair p closer than ``max(threshold) + influence`` there, the
+    distance's gradient is ``g = n^T J_p`` (``close_pairs``), and the row asks
+    ``d + g . (q_j - qs[j]) >= threshold[p] + margin``, scaled by ``1 / |g|`` (a row in meters of
+    the distance's steepest direction). Pairs whose distance does not depend on the joints give no row.
+
+    Returns:
+        ``(check, G, lb)``: the configuration index ``(r,)`` of each row, ``G`` ``(r, dof)`` and
+        ``lb`` ``(r,)`` [m] with the constraint ``G[i] . q_check[i] >= lb[i]``.
+    """
+    qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    reach = float(np.max(clearance.threshold, initial=0.0)) + influence
+    checks, rows, bounds = [], [], []
+    for j, q in enumerate(qs):
+        pairs, d, n, Jp = clearance.close_pairs(q, reach)
+        if len(pairs) == 0:
+            continue
+        g = np.einsum("pi,pij->pj", n, Jp)
+        norm = np.linalg.norm(g, axis=1)
+        keep = norm > 1e-9
+        g, norm = g[keep] / norm[keep, None], norm[keep]
+        lb = (clearance.threshold[pairs[keep]] + margin - d[keep]) / norm + g @ q
+        checks.append(np.full(len(g), j))
+        rows.append(g)
+        bounds.append(lb)
+    if not rows:
+        return np.zeros(0, dtype=int), np.zeros((0, qs.shape[1])), np.zeros(0)
+    return np.concatenate(checks), np.vstack(rows), np.concatenate(bounds)
+
+
+def clearance_ok(clearance: Clearance, qs: np.ndarray, margin: float = 0.0) -> bool:
+    """Every pair at least ``threshold + margin`` [m] apart at every row of ``qs`` ``(N, dof)``."""
+    d = clearance.distances(np.atleast_2d(np.asarray(qs, dtype=float)))
+    return bool((d >= clearance.threshold + margin).all())

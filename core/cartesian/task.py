@@ -14,6 +14,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.measure import DeviationReport
+from core.clearance import Clearance
 from core.kinematics import Kinematics
 from core.path.line import StraightLine
 from core.trajectory import Trajectory
@@ -46,6 +47,8 @@ class CartesianTask:
             exceeds a joint acceleration limit (with warnings) instead of failing.
         solver: QP solver name for ``resolved_rate_dls``.
         deadline: Wall-time budget.
+        clearance: The environment's distances (obstacles, self-collision), for the methods that
+            avoid collisions (``bounded_deviation_nlp``); None: no avoidance.
     """
 
     robot: Kinematics
@@ -64,6 +67,7 @@ class CartesianTask:
     allow_violations: bool = False
     solver: str = "osqp"
     deadline: Deadline = NO_DEADLINE
+    clearance: Clearance | None = None
 
     def line(self) -> StraightLine:
         """The straight line from FK(q_start) to T_goal."""

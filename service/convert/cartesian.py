@@ -24,6 +24,7 @@ from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
+from service import environment
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
 from service.schemas.cartesian import CartesianTaskSpec
 
@@ -99,6 +100,9 @@ def task_from_spec(
         position_tolerance=spec.tolerance.position,
         orientation_tolerance=spec.tolerance.orientation,
         deadline=deadline,
+        clearance=None
+        if spec.environment is None
+        else environment.checker(robot, spec.environment, environment.inline_urdf(spec.robot)),  # type: ignore[arg-type]
         **same_named,
     )
 

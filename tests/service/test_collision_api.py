@@ -471,3 +471,40 @@ def test_inline_description_encloses_the_urdf_primitives(client) -> None:
     assert sphere["link"] == "l2" and sphere["shape"] == {"type": "sphere", "radius": 0.04}
     np.testing.assert_allclose(sphere["origin"]["position"], [0.1, 0.02, 0.0], atol=1e-12)
     assert doc["allowed_self_collisions"] == [["l1", "l2"]]
+
+
+def test_bounded_deviation_nlp_uses_the_tolerance_band_to_pass_a_ball(client) -> None:
+    """A ball that the straight line's tool capsule touches (1 mm into it at mid-line): the sampled
+    line is 422 collision; the NLP bends the path within the 20 mm band and keeps the clearance,
+    measured on the returned points by an independent closed form (ball centre to tool segment)."""
+    off = np.array([0.0, 0.3, 0.0])
+    a, b, r = tool_capsule(UR5.home)
+    R, clearance = 0.05, 0.005
+    center = (a + b) / 2 + off / 2 + np.array([-(R + r - 0.001), 0.0, 0.0])
+    env = {"obstacles": [ball("ball", center, R)], "clearance": clearance}
+    tol = {"position": 0.02, "orientation": 0.01}
+    # the straight line: the tool segment passes 1 mm inside the ball's surface (plus the radius)
+    straight = point_segment(center, a + off / 2, b + off / 2) - R - r
+    assert abs(straight + 0.001) < 1e-9
+    err = problem(
+        client.post(
+            "/v1/trajectories/cartesian",
+            json=lin_body(off, method="sampled", environment=env, tolerance=tol),
+        ),
+        422,
+        "collision",
+    )
+    assert "ball" in err["links"]
+    res = client.post(
+        "/v1/trajectories/cartesian",
+        json=lin_body(off, method="bounded_deviation_nlp", environment=env, tolerance=tol),
+    )
+    assert res.status_code == 200, res.json()
+    doc = res.json()
+    diag = doc["diagnostics"]
+    assert diag["min_clearance"] >= clearance
+    assert diag["max_position_deviation"] <= tol["position"]
+    qs = np.array([p["positions"] for p in doc["points"]])
+    tool = np.array([point_segment(center, *tool_capsule(q)[:2]) for q in qs]) - R - r
+    assert tool.min() >= clearance - 1e-9
+    assert tool.min() < clearance + 0.01  # it passes close: the band is used, not a detour
