@@ -4,14 +4,17 @@
 ``robots.collision.CollisionChecker``) and calls it on joint configurations. (Integrator: this Protocol
 belongs in ``core/kinematics.py`` next to ``Kinematics``; it lives here until that file's owners move it.)
 
-Velocity damper (Faverjon and Tournassoud 1987; mink's ``CollisionAvoidanceLimit``): for a pair at
-distance ``d`` with unit normal ``n`` (from the obstacle towards the robot point) and the robot point's
-Jacobian ``J_p`` (3, dof), the joint velocity ``qd`` must satisfy
+Velocity damper (Faverjon and Tournassoud 1987; in the discrete form of mink's
+``CollisionAvoidanceLimit``): for a pair at distance ``d`` with unit normal ``n`` (from the obstacle
+towards the robot point) and the robot point's Jacobian ``J_p`` (3, dof), the joint velocity ``qd``
+must satisfy
 
-    n^T J_p qd >= -xi (d - d_safe) / (d_influence - d_safe) / dt
+    n^T J_p qd >= -xi (d - d_safe) / dt
 
-for every pair with ``d < d_influence``: the approach speed is bounded so that the distance decays at
-most exponentially towards ``d_safe`` and never crosses it (in continuous time).
+for every pair with ``d < d_influence``: one period closes at most the share ``xi`` of the margin
+``d - d_safe``, so (to first order) the distance decays geometrically towards ``d_safe`` and never
+crosses it. ``VelocityDampers`` is the per-tick hook of the DLS QP (``ExtraRows`` of
+``core.cartesian.rate``): these rows for the pairs of a ``Clearance`` within its influence distance.
 """
 
 from __future__ import annotations
@@ -76,8 +79,7 @@ def velocity_damper_rows(
     d_influence: float,
     xi: float = 1.0,
 ) -> DamperRows:
-    """Rows ``-n^T J_p qd <= xi (d - d_safe) / (d_influence - d_safe) / dt`` for pairs within the
-    influence distance.
+    """Rows ``-n^T J_p qd <= xi (d - d_safe) / dt`` for pairs within the influence distance.
 
     Args:
         distances: ``(P,)`` [m] signed distance of each pair.
@@ -99,7 +101,7 @@ def velocity_damper_rows(
         raise ValueError("point_jacobians must be (P, 3, dof)")
     active = d < d_influence
     G = -np.einsum("pi,pij->pj", n[active], Jp[active])
-    h = xi * (d[active] - d_safe) / (d_influence - d_safe) / dt
+    h = xi * (d[active] - d_safe) / dt
     return DamperRows(G, h, active)
 
 
@@ -152,3 +154,64 @@ def clearance_ok(clearance: Clearance, qs: np.ndarray, margin: float = 0.0) -> b
     """Every pair at least ``threshold + margin`` [m] apart at every row of ``qs`` ``(N, dof)``."""
     d = clearance.distances(np.atleast_2d(np.asarray(qs, dtype=float)))
     return bool((d >= clearance.threshold + margin).all())
+
+
+DAMPER_INFLUENCE = 0.05
+"""[m] Pairs closer than this beyond their threshold get a velocity-damper row."""
+DAMPER_GAIN = 0.02
+"""Share of the remaining margin one control period may close: with a 1 ms period the distance
+decays towards the threshold with a time constant of about 50 ms at most."""
+DAMPER_CAPACITY = 16
+"""Most velocity-damper rows one tick adds (the closest pairs)."""
+
+
+class VelocityDampers:
+    """The per-tick extra rows ``a . qd >= b`` of the DLS QP that keep ``clearance``'s pairs apart
+    (``ExtraRows`` of ``core.cartesian.rate.tick_qp``): ``velocity_damper_rows`` with each pair's
+    own ``d_safe`` (its threshold) for the pairs within ``influence`` of it, the closest
+    ``capacity`` of them.
+
+    Args:
+        clearance: The environment's distances.
+        dt: Control period [s] > 0.
+        influence: [m] > 0 beyond each pair's threshold.
+        gain: ``xi`` of ``velocity_damper_rows``, in (0, 1].
+        capacity: Most rows a tick returns.
+    """
+
+    def __init__(
+        self,
+        clearance: Clearance,
+        dt: float,
+        *,
+        influence: float = DAMPER_INFLUENCE,
+        gain: float = DAMPER_GAIN,
+        capacity: int = DAMPER_CAPACITY,
+    ) -> None:
+        if not (dt > 0 and influence > 0 and 0 < gain <= 1 and capacity >= 1):
+            raise ValueError("need dt > 0, influence > 0, 0 < gain <= 1 and capacity >= 1")
+        self.clearance, self.dt, self.influence, self.gain = clearance, dt, influence, gain
+        self.capacity = int(capacity)
+        self.reach = float(np.max(clearance.threshold, initial=0.0)) + influence
+        self.min_margin = float("inf")
+        """[m] Smallest ``d - threshold`` seen at a tick (the closed-form distances)."""
+
+    def __call__(self, q: np.ndarray) -> list[tuple[np.ndarray, float]]:
+        c = self.clearance
+        margin = c.distances(np.asarray(q, dtype=float)[None])[0] - c.threshold
+        self.min_margin = min(self.min_margin, float(np.min(margin, initial=np.inf)))
+        if not (margin < self.influence).any():  # nothing near: no coal query
+            return []
+        pairs, d, n, Jp = c.close_pairs(q, self.reach)
+        slack = d - c.threshold[pairs]
+        near = np.flatnonzero(slack < self.influence)
+        near = near[np.argsort(slack[near])][: self.capacity]
+        rows: list[tuple[np.ndarray, float]] = []
+        for k in near:
+            thr = float(c.threshold[pairs[k]])
+            r = velocity_damper_rows(
+                d[k : k + 1], n[k : k + 1], Jp[k : k + 1],
+                dt=self.dt, d_safe=thr, d_influence=thr + self.influence, xi=self.gain,
+            )  # fmt: skip
+            rows.extend((-g, -float(h)) for g, h in zip(r.G, r.h, strict=True))
+        return rows

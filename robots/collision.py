@@ -241,6 +241,7 @@ class CollisionChecker:
         )
         self._weights = self._motion_weights()
         self._prepare_entries()
+        self._coal: tuple[Any, ...] | None = None  # damper_inputs' workspace, built on first use
 
     @property
     def n_pairs(self) -> int:
@@ -742,11 +743,13 @@ def damper_inputs(check: CollisionChecker, q: np.ndarray, d_influence: float) ->
     robot = check.robot
     model = robot.model
     q = np.asarray(q, dtype=float)
-    gm, _, pairs = check._geometry_model()
-    data, gdata = pin.Data(model), pin.GeometryData(gm)
+    if check._coal is None:  # one coal workspace per checker: a control loop calls this per tick
+        gm, _, pairs = check._geometry_model()
+        index = {(cp.first, cp.second): k for k, cp in enumerate(gm.collisionPairs)}
+        check._coal = (gm, pairs, index, pin.Data(model), pin.GeometryData(gm))
+    gm, pairs, index, data, gdata = check._coal
     pin.computeDistances(model, data, gm, gdata, q)
     pin.computeJointJacobians(model, data, q)
-    index = {(cp.first, cp.second): k for k, cp in enumerate(gm.collisionPairs)}
     R = check._T_base_world[:3, :3]
     rows, dist, normals, jacs = [], [], [], []
 
