@@ -161,6 +161,9 @@ DAMPER_INFLUENCE = 0.05
 DAMPER_GAIN = 0.02
 """Share of the remaining margin one control period may close: with a 1 ms period the distance
 decays towards the threshold with a time constant of about 50 ms at most."""
+DAMPER_BUFFER = 1e-3
+"""[m] The dampers hold each pair this far beyond its threshold (the returned points are joined by
+straight joint segments, which may cut a little closer than the controller's ticks)."""
 DAMPER_CAPACITY = 16
 """Most velocity-damper rows one tick adds (the closest pairs)."""
 
@@ -168,8 +171,9 @@ DAMPER_CAPACITY = 16
 class VelocityDampers:
     """The per-tick extra rows ``a . qd >= b`` of the DLS QP that keep ``clearance``'s pairs apart
     (``ExtraRows`` of ``core.cartesian.rate.tick_qp``): ``velocity_damper_rows`` with each pair's
-    own ``d_safe`` (its threshold) for the pairs within ``influence`` of it, the closest
-    ``capacity`` of them.
+    own ``d_safe`` (its threshold plus ``buffer``) for the pairs within ``influence`` of its
+    threshold, the closest ``capacity`` of them. A pair already inside its threshold gets ``a . qd >= 0`` (no further
+    approach) rather than a separation speed the rate bounds may not allow.
 
     Args:
         clearance: The environment's distances.
@@ -177,6 +181,7 @@ class VelocityDampers:
         influence: [m] > 0 beyond each pair's threshold.
         gain: ``xi`` of ``velocity_damper_rows``, in (0, 1].
         capacity: Most rows a tick returns.
+        buffer: [m] >= 0 added to each threshold (``d_safe``).
     """
 
     def __init__(
@@ -187,10 +192,14 @@ class VelocityDampers:
         influence: float = DAMPER_INFLUENCE,
         gain: float = DAMPER_GAIN,
         capacity: int = DAMPER_CAPACITY,
+        buffer: float = DAMPER_BUFFER,
     ) -> None:
-        if not (dt > 0 and influence > 0 and 0 < gain <= 1 and capacity >= 1):
-            raise ValueError("need dt > 0, influence > 0, 0 < gain <= 1 and capacity >= 1")
+        if not (dt > 0 and influence > buffer >= 0 and 0 < gain <= 1 and capacity >= 1):
+            raise ValueError(
+                "need dt > 0, influence > buffer >= 0, 0 < gain <= 1 and capacity >= 1"
+            )
         self.clearance, self.dt, self.influence, self.gain = clearance, dt, influence, gain
+        self.buffer = buffer
         self.capacity = int(capacity)
         self.reach = float(np.max(clearance.threshold, initial=0.0)) + influence
         self.min_margin = float("inf")
@@ -208,10 +217,12 @@ class VelocityDampers:
         near = near[np.argsort(slack[near])][: self.capacity]
         rows: list[tuple[np.ndarray, float]] = []
         for k in near:
-            thr = float(c.threshold[pairs[k]])
+            thr = float(c.threshold[pairs[k]]) + self.buffer
             r = velocity_damper_rows(
                 d[k : k + 1], n[k : k + 1], Jp[k : k + 1],
                 dt=self.dt, d_safe=thr, d_influence=thr + self.influence, xi=self.gain,
             )  # fmt: skip
-            rows.extend((-g, -float(h)) for g, h in zip(r.G, r.h, strict=True))
+            # inside the threshold already: only forbid approaching further (always feasible, and
+            # the collision check reports the contact)
+            rows.extend((-g, -max(float(h), 0.0)) for g, h in zip(r.G, r.h, strict=True))
         return rows

@@ -37,7 +37,7 @@ def test_far_obstacle_gives_no_rows() -> None:
 def test_rows_close_the_gain_share_of_the_margin() -> None:
     check, q = panda_with_ball(0.15)
     dt, gain = 1e-3, 0.05
-    dampers = VelocityDampers(check, dt, gain=gain, influence=0.1, capacity=3)
+    dampers = VelocityDampers(check, dt, gain=gain, influence=0.1, capacity=3, buffer=0.0)
     rows = dampers(q)
     margin = check.distances(q[None])[0] - check.threshold
     near = np.sort(margin[margin < 0.1])
@@ -60,3 +60,13 @@ def test_bad_parameters_raise() -> None:
         VelocityDampers(check, 0.0)
     with pytest.raises(ValueError):
         VelocityDampers(check, 1e-3, gain=1.5)
+    with pytest.raises(ValueError):
+        VelocityDampers(check, 1e-3, influence=0.01, buffer=0.02)
+
+
+def test_buffer_moves_the_safe_distance() -> None:
+    check, q = panda_with_ball(0.15)
+    margin = np.sort(check.distances(q[None])[0] - check.threshold)
+    dt, gain, buffer = 1e-3, 0.05, 0.004
+    (row,) = VelocityDampers(check, dt, gain=gain, influence=0.1, capacity=1, buffer=buffer)(q)
+    assert row[1] == pytest.approx(-gain * (margin[0] - buffer) / dt, rel=1e-6)
