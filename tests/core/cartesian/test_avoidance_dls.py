@@ -35,13 +35,13 @@ def test_far_obstacle_gives_no_rows() -> None:
 
 
 def test_rows_close_the_gain_share_of_the_margin() -> None:
-    check, q = panda_with_ball(0.15)
+    check, q = panda_with_ball(0.2)
     dt, gain = 1e-3, 0.05
-    dampers = VelocityDampers(check, dt, gain=gain, influence=0.1, capacity=3, buffer=0.0)
+    dampers = VelocityDampers(check, dt, gain=gain, influence=0.11, capacity=2, buffer=0.0)
     rows = dampers(q)
     margin = check.distances(q[None])[0] - check.threshold
-    near = np.sort(margin[margin < 0.1])
-    assert 1 <= len(rows) == min(3, len(near))
+    near = np.sort(margin[margin < 0.11])
+    assert len(near) == 3 and len(rows) == 2  # the closest two
     # bounds, closest first: -gain (d - d_safe) / dt
     b = np.array([r[1] for r in rows])
     np.testing.assert_allclose(b, -gain * near[: len(rows)] / dt, atol=1e-6 / dt)
@@ -64,8 +64,16 @@ def test_bad_parameters_raise() -> None:
         VelocityDampers(check, 1e-3, influence=0.01, buffer=0.02)
 
 
-def test_buffer_moves_the_safe_distance() -> None:
+def test_a_pair_inside_its_threshold_may_only_not_approach() -> None:
     check, q = panda_with_ball(0.15)
+    margin = check.distances(q[None])[0] - check.threshold
+    assert margin.min() < 0
+    rows = VelocityDampers(check, 1e-3)(q)
+    assert rows[0][1] == 0.0 and all(b < 0 for _, b in rows[1:])
+
+
+def test_buffer_moves_the_safe_distance() -> None:
+    check, q = panda_with_ball(0.2)
     margin = np.sort(check.distances(q[None])[0] - check.threshold)
     dt, gain, buffer = 1e-3, 0.05, 0.004
     (row,) = VelocityDampers(check, dt, gain=gain, influence=0.1, capacity=1, buffer=buffer)(q)
