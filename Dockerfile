@@ -25,7 +25,10 @@ COPY service ./service
 # runs: pip, setuptools and wheel leave it; C/C++ headers, static libraries and CMake/pkg-config
 # files (they only serve to build extensions) go; identical copies of a shared library in one
 # directory (wheels store libfoo.so, libfoo.so.3 and libfoo.so.3.7 as three files) become symlinks.
+# EAIK requires urchin (its URDF loader, eaik.IK_URDF) and urchin's mesh stack; the service calls
+# eaik.pybindings only, from the joint axes, so that stack (about 45 MB) never runs and leaves too.
 RUN pip install . \
+    && pip uninstall -y urchin trimesh lxml networkx pycollada pillow \
     && pip uninstall -y pip setuptools wheel \
     && python /usr/local/lib/slim_venv.py /opt/venv
 

@@ -6,7 +6,8 @@ zig-zag kept inside a reachable box, turns of 30-150 degrees), blend radii of 2-
 - the blended program, planned by ``core.program.plan.plan_program``;
 - the same ten lines planned alone by the single-line planner (``core.cartesian.plan.plan``,
   ``sampled``), each from where the previous one ended: the sum of their planning times;
-- the same program with full stops (every blend radius 0).
+- the same program with full stops (every blend radius 0);
+- the blended program with ``speed_profile="s_curve"`` (default tool jerk 10 m/s^3).
 
 Planning times are medians of ``ROUNDS`` alternating runs in one process (2 shared cores: read the
 ratios, not the absolute numbers); cycle times are the trajectories' durations.
@@ -49,13 +50,22 @@ def corners(seed: int = 0, count: int = 10) -> tuple[list[np.ndarray], list[floa
     return p, radii
 
 
-def segments(points: list[np.ndarray], radii: list[float], blended: bool) -> tuple[Segment, ...]:
+def segments(
+    points: list[np.ndarray], radii: list[float], blended: bool, speed_profile: str = "trapezoidal"
+) -> tuple[Segment, ...]:
     T = registry.get("ur5").fk(HOME)
     out = []
     for p, r in zip(points[1:], radii, strict=True):
         goal = T.copy()
         goal[:3, 3] = p
-        out.append(Segment("lin", goal_pose=goal, blend_radius=r if blended else 0.0))
+        out.append(
+            Segment(
+                "lin",
+                goal_pose=goal,
+                blend_radius=r if blended else 0.0,
+                speed_profile=speed_profile,
+            )
+        )
     return tuple(out)
 
 
@@ -64,6 +74,7 @@ def main() -> None:
     points, radii = corners()
     blended = ProgramTask(robot, HOME, segments(points, radii, True))
     stopped = ProgramTask(robot, HOME, segments(points, radii, False))
+    s_curve = ProgramTask(robot, HOME, segments(points, radii, True, "s_curve"))
     ends = [seg.goal_pose for seg in blended.segments]
 
     def singles() -> float:
@@ -74,12 +85,13 @@ def main() -> None:
             total += result.trajectory.duration
         return total
 
-    times: dict[str, list[float]] = {"blended": [], "stops": [], "singles": []}
+    times: dict[str, list[float]] = {"blended": [], "stops": [], "singles": [], "s_curve": []}
     results = {}
     for _ in range(ROUNDS):
         for name, run in (
             ("blended", lambda: plan_program(blended)),
             ("stops", lambda: plan_program(stopped)),
+            ("s_curve", lambda: plan_program(s_curve)),
             ("singles", singles),
         ):
             start = time.perf_counter()
@@ -90,6 +102,7 @@ def main() -> None:
         "blended": results["blended"].trajectory.duration,
         "stops": results["stops"].trajectory.duration,
         "singles": results["singles"],
+        "s_curve": results["s_curve"].trajectory.duration,
     }
     lengths = [np.linalg.norm(b - a) for a, b in itertools.pairwise(points)]
     print(
@@ -104,10 +117,14 @@ def main() -> None:
         "singles": "the ten lines planned alone (core sampled), sum",
         "blended": "one program, 9 blends",
         "stops": "one program, a stop at every corner",
+        "s_curve": "blended, speed_profile s_curve (tool jerk <= 10 m/s^3), peak joint jerk "
+        f"{results['s_curve'].trajectory.peak_jerk.max():.0f} rad/s^3 (blended: "
+        f"{results['blended'].trajectory.peak_jerk.max():.0f})",
     }
-    for name in ("singles", "blended", "stops"):
+    for name in ("singles", "blended", "stops", "s_curve"):
         label = {"singles": "**ten single lines**", "blended": "ours: program, blended",
-                 "stops": "ours: program, full stops"}[name]  # fmt: skip
+                 "stops": "ours: program, full stops",
+                 "s_curve": "ours: program, blended, s_curve"}[name]  # fmt: skip
         print(f"| {label} | {med[name]:.1f} | {med[name] / base:.2f}x | {cycle[name]:.3f} | "
               f"{notes[name]} |")  # fmt: skip
     saving = 1.0 - cycle["blended"] / cycle["stops"]

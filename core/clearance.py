@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from scipy import sparse
 
 
 @runtime_checkable
@@ -148,6 +149,24 @@ def linearized_clearance_rows(
     if not rows:
         return np.zeros(0, dtype=int), np.zeros((0, qs.shape[1])), np.zeros(0)
     return np.concatenate(checks), np.vstack(rows), np.concatenate(bounds)
+
+
+def stacked_rows(
+    clearance_rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None, m: int, dof: int
+) -> tuple[sparse.csc_matrix | None, np.ndarray]:
+    """``(W, lb)``: the rows ``(check, G, lb)`` of ``linearized_clearance_rows`` on the stacked
+    configurations of ``m`` checks (check j's joints at ``dof * j`` onwards): ``W x >= lb`` for
+    ``x = qs.ravel()``, ``qs`` ``(m, dof)``; ``W`` None when there are no rows."""
+    if clearance_rows is None or len(clearance_rows[0]) == 0:
+        return None, np.zeros(0)
+    check, G, lb = clearance_rows
+    r = len(check)
+    cols = (dof * np.asarray(check)[:, None] + np.arange(dof)[None, :]).ravel()
+    W = sparse.csc_matrix(
+        (np.asarray(G, dtype=float).ravel(), (np.repeat(np.arange(r), dof), cols)),
+        shape=(r, dof * m),
+    )
+    return W, np.asarray(lb, dtype=float)
 
 
 def clearance_ok(clearance: Clearance, qs: np.ndarray, margin: float = 0.0) -> bool:

@@ -1,6 +1,7 @@
 """Panda: a pick-and-place cycle as one motion program.
 
-PTP to above the part, LIN down to it (stop: grasp), LIN up, PTP over to above the place position,
+PTP to above the part (jerk-limited: the Panda's controller refuses acceleration steps), LIN down
+to it (stop: grasp), LIN up, PTP over to above the place position,
 LIN down (stop: release). The way up, over and down is blended (5 cm spheres), so the arm does not
 stop at the top of either LIN. Checked here with the robot's own forward kinematics:
 
@@ -42,7 +43,12 @@ REQUEST = {
     "robot": "panda",
     "start": {"positions": HOME},
     "segments": [
-        {"type": "ptp", "goal": pose(PICK + LIFT), "velocity_scale": 0.8},
+        {
+            "type": "ptp",
+            "goal": pose(PICK + LIFT),
+            "velocity_scale": 0.8,
+            "profile": "jerk_limited",
+        },
         {"type": "lin", "goal": pose(PICK), "max_linear_speed": 0.2},
         {"type": "lin", "goal": pose(PICK + LIFT), "max_linear_speed": 0.3, "blend_radius": BLEND},
         {"type": "ptp", "goal": pose(PLACE + LIFT), "blend_radius": BLEND},
@@ -79,6 +85,12 @@ def main() -> None:
         i = int(np.flatnonzero(times == segs[k]["end_time"])[0])
         expect(np.linalg.norm(T[i, :3, 3] - target) <= 1e-6, f"segment {k} misses its goal")
         expect(np.all(v[i] == 0.0), f"the arm does not stop at the goal of segment {k}")
+    # The approach PTP (between stops) is jerk-limited: Ruckig under the Panda's 7500 rad/s^3.
+    sel = times <= segs[0]["end_time"]
+    jerk = np.abs(np.diff(acc[sel], axis=0) / np.diff(times[sel])[:, None]).max()
+    print(f"  segment 0 (ptp, jerk_limited): {segs[0]['end_time']:.3f} s, largest joint jerk "
+          f"{jerk:.0f} rad/s^3 (limit {PANDA.jerk_limits.min():.0f})")  # fmt: skip
+    expect(jerk <= PANDA.jerk_limits.min() * (1 + 1e-6), "the approach exceeds the jerk limit")
     for k in (2, 3):
         w = segs[k]["blend_out"]
         sel = (times >= w["start_time"]) & (times <= w["end_time"])

@@ -164,12 +164,12 @@ def continuation(
     steps = int(np.ceil(max(line.length / CONTINUATION_STEP[0], line.angle / CONTINUATION_STEP[1])))
     ds_max = 1.0 / min(max(steps, 1), 256)
     rows = task_rows(kin.task_space)
-    twist = line.derivative(np.zeros(1))[0][rows]  # tool twist per unit s (a line: constant)
     s, q = 0.0, np.asarray(q_start, dtype=float)
     s_list, q_list = [s], [q]
     halved = 1.0
     while s < 1.0:
         deadline.check("bounded deviation: IK continuation")
+        twist = line.derivative(np.array([s]))[0][rows]  # tool twist per unit s at s
         dq_ds, *_ = np.linalg.lstsq(kin.jacobian(q)[rows], twist, rcond=1e-6)
         rate = float(np.max(np.abs(dq_ds)))
         ds = min(ds_max, CONTINUATION_JOINT_STEP / rate if rate > 0 else ds_max) * halved

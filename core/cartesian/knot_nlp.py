@@ -45,8 +45,10 @@ from core.cartesian.knot_nlp_derivatives import derivatives
 from core.cartesian.knot_path import KnotPath, Knots
 from core.cartesian.knots import MARGIN
 from core.cartesian.measure import dense_times
+from core.clearance import stacked_rows
 from core.geometry import so3
 from core.kinematics import Kinematics
+from core.path.arc import Arc
 from core.path.line import StraightLine
 
 NLP_CHECKS = 8
@@ -85,9 +87,15 @@ def _clip01(x: ca.SX) -> ca.SX:
 
 
 def deviation_constraints(
-    line: StraightLine, p: ca.SX, R: ca.SX, tol_p: float, tol_o: float, margin: float = MARGIN
+    line: StraightLine | Arc,
+    p: ca.SX,
+    R: ca.SX,
+    tol_p: float,
+    tol_o: float,
+    margin: float = MARGIN,
 ) -> list[ca.SX]:
-    """Scaled deviation constraints (each <= 1) of one tool pose (p (3,), R (3, 3)) from ``line``.
+    """Scaled deviation constraints (each <= 1) of one tool pose (p (3,), R (3, 3)) from ``line``
+    (an ``Arc``: ``arc_constraints``).
 
     Position and orientation at the closest line point of ``StraightLine.deviation`` (s*: the
     position and orientation projections weighed by ``tol_p`` [m] and ``tol_o`` [rad]), and the
@@ -95,6 +103,8 @@ def deviation_constraints(
     the plain distance to the segment), so the bound holds for either way of measuring it. The
     bounds are ``margin`` times the tolerances. ``position_xy``: the position constraint only.
     """
+    if isinstance(line, Arc):
+        return arc_constraints(line, p, R, tol_p, tol_o, margin)
     rows = 2 if line.task_space == "position_xy" else 3
     d = line.delta_p[:rows]
     length_sq = float(d @ d)
@@ -128,6 +138,32 @@ def deviation_constraints(
         out.append(misalignment(s))
         if length_sq > 1e-12:
             out.append(misalignment(_clip01(s_pos)))
+    return out
+
+
+def arc_constraints(
+    arc: Arc, p: ca.SX, R: ca.SX, tol_p: float, tol_o: float, margin: float = MARGIN
+) -> list[ca.SX]:
+    """``deviation_constraints`` for an arc, at its closest point of ``Arc.deviation`` (s* by the
+    angle about the centre, measured from the arc's middle so it is smooth over the whole arc,
+    clipped to [0, 1]): distance to the arc point and (``pose``) misalignment with the slerp there."""
+    theta = arc.theta
+    mid = np.cos(0.5 * theta) * arc.u + np.sin(0.5 * theta) * arc.v
+    d = p - ca.DM(arc.center)
+    psi = ca.atan2(ca.dot(d, ca.DM(np.cross(arc.normal, mid))), ca.dot(d, ca.DM(mid)))
+    s = _clip01(0.5 + psi / theta)
+    radius = arc.r0 + s * (arc.r1 - arc.r0)
+    on_arc = ca.DM(arc.center) + radius * (
+        ca.cos(s * theta) * ca.DM(arc.u) + ca.sin(s * theta) * ca.DM(arc.v)
+    )
+    err = p - on_arc
+    out = [ca.dot(err, err) / (margin * tol_p) ** 2]
+    angle = arc.angle
+    if arc.task_space == "pose":
+        K = so3.skew(arc.rotvec / angle) if angle > 1e-12 else np.zeros((3, 3))
+        E = ca.DM(arc.R0.T) @ R
+        E_arc = ca.DM.eye(3) + ca.sin(s * angle) * K + (1.0 - ca.cos(s * angle)) * (K @ K)
+        out.append((3.0 - ca.trace(E_arc.T @ E)) / (2.0 * (1.0 - np.cos(margin * tol_o))))
     return out
 
 
@@ -176,7 +212,10 @@ class KnotNLP:
 
 
 def deviation_function(
-    fk: ca.Function, line: StraightLine, position_tolerance: float, orientation_tolerance: float
+    fk: ca.Function,
+    line: StraightLine | Arc,
+    position_tolerance: float,
+    orientation_tolerance: float,
 ) -> ca.Function:
     """``g(q)``: the scaled deviation constraints (each <= 1) of configuration ``q`` (dof,).
 
@@ -269,7 +308,7 @@ def build_knot_nlp(
     x = ca.vertcat(ca.vec(inner), ca.vec(moments))
     f = ca.sumsqr(diff)
     linear = ca.vertcat(ca.vec(spline), ca.vec(Qc))
-    rows, lb_rows = _clearance_matrix(clearance_rows, m, dof)
+    rows, lb_rows = stacked_rows(clearance_rows, m, dof)
     if rows is not None:
         linear = ca.vertcat(linear, ca.DM(rows) @ ca.vec(Qc))
     options = {
@@ -302,23 +341,6 @@ def build_knot_nlp(
 def check_points(s_knots: np.ndarray, checks: int = NLP_CHECKS) -> np.ndarray:
     """Path parameters of the NLP's check points (``KnotNLP.checks``) for knots at ``s_knots``."""
     return dense_times(np.asarray(s_knots, dtype=float), checks)[1:-1]
-
-
-def _clearance_matrix(
-    clearance_rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None, m: int, dof: int
-) -> tuple[sparse.csc_matrix | None, np.ndarray]:
-    """``(W, lb)``: the rows ``W vec(Qc) >= lb`` of linearized clearance constraints (``vec(Qc)``
-    holds check j's joints at ``dof * j`` onwards), None when there are none."""
-    if clearance_rows is None or len(clearance_rows[0]) == 0:
-        return None, np.zeros(0)
-    check, G, lb = clearance_rows
-    r = len(check)
-    cols = (dof * np.asarray(check)[:, None] + np.arange(dof)[None, :]).ravel()
-    W = sparse.csc_matrix(
-        (np.asarray(G, dtype=float).ravel(), (np.repeat(np.arange(r), dof), cols)),
-        shape=(r, dof * m),
-    )
-    return W, np.asarray(lb, dtype=float)
 
 
 class KnotSolution(NamedTuple):

@@ -47,13 +47,12 @@ def plan_partial(
         if not task.allow_partial or err.s is None or err.field is not None:
             raise
         failure = err
-    line = task.line()
     fail_at, reached = float(failure.s), failure.extra.get("s_reached")
     for _ in range(PARTIAL_TRIES):
         end = float(reached) if reached is not None else 0.95 * fail_at
         if end < MIN_FRACTION:
             raise failure
-        prefix = replace(task, T_goal=line.pose(end), q_goal=None, allow_partial=False)
+        prefix = replace(task.prefix(end), q_goal=None, allow_partial=False)
         try:
             result = plan(prefix)
             break

@@ -1,4 +1,9 @@
-"""Joint rates along the line: dq/ds = J^+ V and d2q/ds2, with the smallest singular value."""
+"""Joint rates along the path: dq/ds = J^+ V(s) and d2q/ds2, with the smallest singular value.
+
+V(s) is the path's derivative at s (``Path.derivative``): constant along a line, turning with s on an
+arc. The s of each configuration is given, or read off the path as the closest point of its forward
+kinematics (``Path.deviation``: exact for configurations on the path).
+"""
 
 from __future__ import annotations
 
@@ -8,7 +13,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.kinematics import Kinematics, jacobians, task_rows
-from core.path.line import StraightLine
+from core.path import Path
 
 RATES_CHUNK = 2048
 """Rows of ``path_rates`` computed between two deadline checks."""
@@ -32,25 +37,34 @@ class PathRates(NamedTuple):
 
 def path_rates(
     robot: Kinematics,
-    line: StraightLine,
+    line: Path,
     positions: np.ndarray,
     second_order: bool = True,
     deadline: Deadline = NO_DEADLINE,
+    s: np.ndarray | None = None,
 ) -> PathRates:
-    """dq/ds = J^+ V at each row of ``positions`` (N, dof), with V the line's twist per unit s (task
-    rows only); d2q/ds2 by a central difference of J^+ V along dq/ds (2 more Jacobians per row).
-    ``RATES_CHUNK`` rows at a time, ``deadline`` checked between chunks."""
+    """dq/ds = J^+ V(s) at each row of ``positions`` (N, dof), with V(s) the path's derivative per
+    unit s (task rows only) at ``s`` (N,) (None: the closest path point of each row's FK);
+    d2q/ds2 = d(J^+ V)/ds by a central difference along dq/ds, V taken at s -/+ h (2 more
+    Jacobians per row). ``RATES_CHUNK`` rows at a time, ``deadline`` checked between chunks."""
     positions = np.atleast_2d(np.asarray(positions, dtype=float))
     if len(positions) > RATES_CHUNK:
         parts = []
         for i in range(0, len(positions), RATES_CHUNK):
-            deadline.check("joint rates along the line")
-            parts.append(path_rates(robot, line, positions[i : i + RATES_CHUNK], second_order))
+            deadline.check("joint rates along the path")
+            part_s = None if s is None else np.atleast_1d(s)[i : i + RATES_CHUNK]
+            parts.append(
+                path_rates(robot, line, positions[i : i + RATES_CHUNK], second_order, s=part_s)
+            )
         return PathRates(*(np.concatenate(a) for a in zip(*parts, strict=True)))
     rows = task_rows(robot.task_space)
-    V = line.derivative(np.zeros(1))[0][rows]  # per unit s (constant along a line)
+    if s is None:
+        ends = line.derivative(np.array([0.0, 1.0]))
+        # A constant derivative (a line) needs no s; otherwise project the FK onto the path.
+        s = 0.0 if np.array_equal(ends[0], ends[1]) else line.deviation(robot.fk_many(positions)).s
+    s = np.broadcast_to(np.asarray(s, dtype=float), (len(positions),))
 
-    def rates(qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def rates(qs: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # One SVD gives the smallest singular value and the pseudo-inverse (as np.linalg.pinv
         # builds it, with its default cutoff of 1e-15 times the largest singular value).
         J = jacobians(robot, qs)[:, rows]
@@ -59,13 +73,14 @@ def path_rates(
         large = sv > PINV_RCOND * sv.max(axis=-1, keepdims=True)
         inverse = np.divide(1.0, sv, where=large, out=np.zeros_like(sv))
         pinv = np.matmul(np.swapaxes(vt, -1, -2), inverse[..., None] * np.swapaxes(u, -1, -2))
-        return np.einsum("nij,j->ni", pinv, V), smallest
+        V = line.derivative(at)[:, rows]  # per unit s
+        return np.einsum("nij,nj->ni", pinv, V), smallest
 
-    dq, sigma = rates(positions)
+    dq, sigma = rates(positions, s)
     if not second_order:
         return PathRates(dq, np.zeros_like(dq), sigma)
     h = 1e-5 / np.maximum(np.abs(dq).max(axis=1), 1e-3)
     step = h[:, None] * dq
-    ahead, _ = rates(positions + step)
-    behind, _ = rates(positions - step)
+    ahead, _ = rates(positions + step, s + h)
+    behind, _ = rates(positions - step, s - h)
     return PathRates(dq, (ahead - behind) / (2.0 * h[:, None]), sigma)

@@ -7,7 +7,7 @@ Every method (``core.cartesian.methods.METHODS``) takes a ``CartesianTask`` and 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -16,7 +16,7 @@ from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.measure import DeviationReport
 from core.clearance import Clearance
 from core.kinematics import Kinematics
-from core.path.line import StraightLine
+from core.path import Path, build_path
 from core.trajectory import Trajectory
 
 DEFAULT_MAX_LINEAR_SPEED = 0.25
@@ -25,9 +25,24 @@ DEFAULT_MAX_ANGULAR_SPEED = 1.0
 """Tool angular speed [rad/s] used when a request gives neither a duration nor speed limits."""
 
 
+SPEED_PROFILES = ("trapezoidal", "s_curve")
+"""Path-speed profiles of a Cartesian request: ``trapezoidal`` (the speed-limited trapezoid, or the
+quintic for a fixed duration) or ``s_curve`` (continuous s'', path jerk limited)."""
+
+
+@dataclass(frozen=True)
+class PathSpec:
+    """The shape of the tool path (``core.path.PATHS``): ``kind`` ``"line"`` (default) or
+    ``"circ"`` with exactly one of ``interim`` / ``center`` (3,) [m] in the base frame."""
+
+    kind: str = "line"
+    interim: np.ndarray | None = None
+    center: np.ndarray | None = None
+
+
 @dataclass(frozen=True)
 class CartesianTask:
-    """Move the tool on the straight line from FK(q_start) to T_goal.
+    """Move the tool on the path (``path``: line by default) from FK(q_start) to T_goal.
 
     Attributes:
         robot: Kinematics of the arm.
@@ -47,8 +62,12 @@ class CartesianTask:
             exceeds a joint acceleration limit (with warnings) instead of failing.
         solver: QP solver name for ``resolved_rate_dls``.
         deadline: Wall-time budget.
+        path: The path shape (``PathSpec``; default the straight line).
+        speed_profile: ``"trapezoidal"`` or ``"s_curve"`` (``SPEED_PROFILES``).
+        max_linear_jerk: Tool jerk limit [m/s^3] of the s-curve (None: its default).
+        max_angular_jerk: Tool angular jerk limit [rad/s^3] of the s-curve (None: its default).
         clearance: The environment's distances (obstacles, self-collision), for the methods that
-            avoid collisions (``bounded_deviation_nlp``); None: no avoidance.
+            avoid collisions (``bounded_deviation_nlp``, ``resolved_rate_dls``); None: no avoidance.
     """
 
     robot: Kinematics
@@ -67,11 +86,35 @@ class CartesianTask:
     allow_violations: bool = False
     solver: str = "osqp"
     deadline: Deadline = NO_DEADLINE
+    path: PathSpec = PathSpec()
+    speed_profile: str = "trapezoidal"
+    max_linear_jerk: float | None = None
+    max_angular_jerk: float | None = None
     clearance: Clearance | None = None
 
-    def line(self) -> StraightLine:
-        """The straight line from FK(q_start) to T_goal."""
-        return StraightLine(self.robot.fk(self.q_start), self.T_goal, self.robot.task_space)
+    def line(self) -> Path:
+        """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);
+        ``InputError`` at ``path.*`` for bad circle geometry."""
+        return build_path(
+            self.path.kind,
+            self.robot.fk(self.q_start),
+            self.T_goal,
+            self.robot.task_space,
+            interim=self.path.interim,
+            center=self.path.center,
+            field=("path",),
+        )
+
+    def prefix(self, end: float) -> CartesianTask:
+        """The task of the path cut at ``end`` in (0, 1], re-parameterized over [0, 1]: the goal is
+        the pose at ``end``; an arc keeps its circle (its interim point becomes the point at
+        ``end / 2``, so the same arc of the same circle is followed)."""
+        path = self.line()
+        T_end = path.pose(end)
+        spec = self.path
+        if spec.kind != "line":
+            spec = PathSpec(spec.kind, interim=path.pose(0.5 * end)[:3, 3].copy())
+        return replace(self, T_goal=T_end, path=spec)
 
     def speeds(self) -> tuple[float | None, float | None]:
         """Tool speed limits [m/s], [rad/s], with the defaults when nothing times the motion."""

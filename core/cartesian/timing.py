@@ -1,4 +1,6 @@
-"""The timing of a Cartesian line, shared by every Cartesian method: s(t) under the task's limits.
+"""The timing of a Cartesian path (line or arc, ``core.path``), shared by every Cartesian method:
+s(t) under the task's limits. The path's ``length`` [m] and ``angle`` [rad] turn tool limits into
+limits on s.
 
 A Cartesian method decides the path: joint positions q(s) for s in [0, end] (``end`` = 1, or the
 planned fraction of a partial plan) and their derivatives dq/ds, d2q/ds2. ``time_path`` decides, in
@@ -18,6 +20,12 @@ one place for every method, how fast s advances; the path itself never changes:
   ``MIN_SPEED_FRACTION`` of the requested path speed is a Type II ``Singularity``: no reasonable
   slow-down keeps the joints within their limits.
 
+``speed_profile="s_curve"`` swaps both laws for the jerk-limited S-curve (``TIMING_LAWS["s_curve"]``:
+continuous s'', path jerk within the tool jerk limits): with ``duration`` the S-curve of exactly that
+duration; otherwise the shortest S-curve under the tool limits and the smallest joint caps on s' and
+|s''| along the path (one bound each, so it is slower than the trapezoid where a joint cap binds
+only locally).
+
 ``sample_path`` then places the returned points (``samples``: equally spaced in s; else one every
 ``sample_period`` seconds) and ``timed_trajectory`` turns q(s) into velocities dq/ds s' and
 accelerations d2q/ds2 s'^2 + dq/ds s'' by the chain rule, at rest at both ends.
@@ -32,8 +40,8 @@ import numpy as np
 from core.cartesian.joint_limits import LIMIT_SLACK
 from core.cartesian.task import CartesianTask
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
-from core.path.line import StraightLine
-from core.timing import TIMING_LAWS, Profile, TimingSpec
+from core.path import Path
+from core.timing import TIMING_LAWS, Profile, TimingSpec, speed_limited_law
 from core.timing.caps import joint_speed_cap
 from core.timing.quintic import QUINTIC_PEAK_SPEED, QuinticTiming
 from core.trajectory import Trajectory, sample_times
@@ -71,7 +79,7 @@ class PathTiming:
         return float(self.profile.duration)
 
 
-def nominal_path_speed(task: CartesianTask, line: StraightLine) -> float:
+def nominal_path_speed(task: CartesianTask, line: Path) -> float:
     """The peak s' [1/s] the task asks for: 1.875 / duration, or the tool speed limits over the
     line's length and angle (``inf`` when no limit applies to this line's motion)."""
     if task.duration is not None:
@@ -86,7 +94,7 @@ def nominal_path_speed(task: CartesianTask, line: StraightLine) -> float:
 
 def time_path(
     task: CartesianTask,
-    line: StraightLine,
+    line: Path,
     s: np.ndarray,
     dq_ds: np.ndarray,
     d2q_ds2: np.ndarray | None = None,
@@ -113,7 +121,7 @@ def time_path(
     vmax, amax = robot.velocity_limits, robot.acceleration_limits
     d2 = None if d2q_ds2 is None else np.asarray(d2q_ds2, dtype=float)
     if task.duration is not None:
-        return _fixed_duration(task, float(task.duration), s, dq_ds, d2)
+        return _fixed_duration(task, line, float(task.duration), s, dq_ds, d2)
     nominal = nominal_path_speed(task, line)
     linear, angular = task.speeds()
     cap_v = joint_speed_cap(dq_ds, vmax)
@@ -142,15 +150,23 @@ def time_path(
         s=s,
         cap=cap * _CAP_MARGIN,
         acceleration_cap=acc_cap,
+        end=float(s[-1]),
+        max_linear_jerk=task.max_linear_jerk,
+        max_angular_jerk=task.max_angular_jerk,
     )
-    profile = TIMING_LAWS["speed_limited"](spec)
+    if task.speed_profile == "s_curve":
+        profile = TIMING_LAWS["s_curve"](spec)
+        sdot = np.asarray(profile(profile.time_at(s), 1), dtype=float)
+    else:
+        grid_timing = speed_limited_law(spec)
+        profile, sdot = grid_timing, grid_timing.sdot
     if not profile.duration <= MAX_DURATION:
         raise Infeasible(
             f"the timed line would last {profile.duration:.4g} s, over the {MAX_DURATION:g} s limit",
             s=float(s[-1]),
         )
     # Where a joint cap sets the speed (the profile rides on it) below the requested path speed.
-    active = (profile.sdot >= cap * _CAP_MARGIN * (1.0 - 1e-3)) & (cap < nominal * (1.0 - 1e-6))
+    active = (sdot >= cap * _CAP_MARGIN * (1.0 - 1e-3)) & (cap < nominal * (1.0 - 1e-6))
     active[0] = active[-1] = False
     warnings = []
     slowdown = 1.0
@@ -168,12 +184,52 @@ def time_path(
     return PathTiming(profile, float(s[-1]), tuple(warnings), slowdown)
 
 
+def fixed_profile(task: CartesianTask, line: Path, T: float, end: float = 1.0) -> Profile:
+    """s(t) from 0 to ``end`` over exactly ``T`` [s]: the quintic, or with ``speed_profile``
+    ``"s_curve"`` the canonical S-curve (its jerk within the task's jerk limits, else
+    ``Infeasible`` naming the shortest duration)."""
+    if task.speed_profile == "s_curve":
+        spec = TimingSpec(
+            length=line.length,
+            angle=line.angle,
+            duration=T,
+            end=end,
+            max_linear_jerk=task.max_linear_jerk,
+            max_angular_jerk=task.max_angular_jerk,
+        )
+        return TIMING_LAWS["s_curve"](spec)
+    return QuinticTiming(T, end)
+
+
+def nominal_profile(task: CartesianTask, line: Path) -> Profile:
+    """s(t) from 0 to 1 under the task's duration or tool limits alone (no joint caps): what the
+    rate controllers track. Quintic or speed-limited trapezoid; the S-curve with ``s_curve``."""
+    if task.duration is not None:
+        return fixed_profile(task, line, float(task.duration))
+    linear, angular = task.speeds()
+    spec = TimingSpec(
+        line.length,
+        line.angle,
+        max_linear_speed=linear,
+        max_angular_speed=angular,
+        max_linear_jerk=task.max_linear_jerk,
+        max_angular_jerk=task.max_angular_jerk,
+    )
+    law = "s_curve" if task.speed_profile == "s_curve" else "speed_limited"
+    return TIMING_LAWS[law](spec)
+
+
 def _fixed_duration(
-    task: CartesianTask, T: float, s: np.ndarray, dq_ds: np.ndarray, d2: np.ndarray | None
+    task: CartesianTask,
+    line: Path,
+    T: float,
+    s: np.ndarray,
+    dq_ds: np.ndarray,
+    d2: np.ndarray | None,
 ) -> PathTiming:
     vmax, amax = task.robot.velocity_limits, task.robot.acceleration_limits
     names = task.robot.joint_names
-    profile = QuinticTiming(T, float(s[-1]))
+    profile = fixed_profile(task, line, T, float(s[-1]))
     t = profile.time_at(s)
     sdot = profile(t, 1)
     ratio = np.abs(dq_ds) * sdot[:, None] / vmax

@@ -5,18 +5,19 @@ from __future__ import annotations
 import numpy as np
 
 from core.cartesian.joint_limits import inside, worst_joint
-from core.cartesian.task import CartesianTask
+from core.cartesian.task import SPEED_PROFILES, CartesianTask
 from core.errors import (
     InputError,
     JointLimit,
 )
-from core.path.line import StraightLine
+from core.path import Path
 
 
-def validated_line(task: CartesianTask) -> StraightLine:
-    """The task's line after the entry checks every method shares (``InputError`` / ``JointLimit``
-    naming the field): tolerances, duration and speeds finite and > 0; start and goal positions
-    finite, one per joint and inside the joint limits; a goal pose other than the start pose."""
+def validated_line(task: CartesianTask) -> Path:
+    """The task's path after the entry checks every method shares (``InputError`` / ``JointLimit``
+    naming the field): tolerances, duration, speeds and jerks finite and > 0; a known speed
+    profile; start and goal positions finite, one per joint and inside the joint limits; a goal
+    pose other than the start pose; for an arc, a proper circle (``path.*``)."""
     robot = task.robot
     for where, value in (
         (("tolerance", "position"), task.position_tolerance),
@@ -24,9 +25,15 @@ def validated_line(task: CartesianTask) -> StraightLine:
         (("duration",), task.duration),
         (("max_linear_speed",), task.max_linear_speed),
         (("max_angular_speed",), task.max_angular_speed),
+        (("max_linear_jerk",), task.max_linear_jerk),
+        (("max_angular_jerk",), task.max_angular_jerk),
     ):
         if value is not None and not (np.isfinite(value) and value > 0.0):
             raise InputError(f"{'.'.join(where)} must be a finite number > 0", field=where)
+    if task.speed_profile not in SPEED_PROFILES:
+        raise InputError(
+            f"speed_profile must be one of {', '.join(SPEED_PROFILES)}", field=("speed_profile",)
+        )
     for name, q, s in (("start", task.q_start, 0.0), ("goal", task.q_goal, 1.0)):
         if q is None:
             continue
@@ -46,6 +53,6 @@ def validated_line(task: CartesianTask) -> StraightLine:
     line = task.line()
     if line.length < 1e-9 and line.angle < 1e-9:
         raise InputError(
-            "the goal pose is the start pose: there is no line to plan", field=("goal",)
+            "the goal pose is the start pose: there is no path to plan", field=("goal",)
         )
     return line

@@ -162,6 +162,12 @@ class Arc:
         omega = self.R0 @ self.rotvec
         return np.hstack([s_dot[:, None] * self.tangents(s), s_dot[:, None] * omega])
 
+    def derivative(self, s: np.ndarray) -> np.ndarray:
+        """``(N, 6)`` d(pose)/ds at ``s`` (N,): ``[dp/ds (m), R0 rotvec (rad)]`` (the Path Protocol;
+        the linear part turns with s)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        return self.twist(np.ones(s.size), s)
+
     def deviation(
         self, T: np.ndarray, position_tolerance: float = 1e-3, orientation_tolerance: float = 1e-2
     ) -> PathDeviation:
@@ -176,6 +182,9 @@ class Arc:
         to_end = phi - self.theta
         to_start = 2.0 * np.pi - phi
         s = np.where(past, np.where(to_end < to_start, 1.0, 0.0), phi / max(self.theta, _EPS))
+        if self.task_space == "position_xy":  # x and y only; orientation does not count
+            position = np.linalg.norm(T[:, :2, 3] - self.positions(s)[:, :2], axis=1)
+            return PathDeviation(s=s, position=position, orientation=np.zeros(len(T)))
         position = np.linalg.norm(T[:, :3, 3] - self.positions(s), axis=1)
         err = np.swapaxes(self.rotation_matrices(s), 1, 2) @ T[:, :3, :3]
         orientation = np.linalg.norm(so3.log(err), axis=1)

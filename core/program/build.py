@@ -1,8 +1,10 @@
 """Geometry first: every segment's joint samples and every blend's, on one branch.
 
 Segments are planned in order, each from where the last ended: PTP as a joint straight line (to
-goal joints, or to the IK solution of a goal pose nearest the current joints, with the requested
-configuration label), LIN and CIRC by IK along the line or arc (``core.program.walk``). Then each
+goal joints, or to a goal pose: among every IK solution (``robot.ik_all``) the one with the
+requested configuration label nearest the current joints, else the nearest of all), LIN and CIRC
+by IK along the line or arc (``core.program.walk``), keeping the configuration label of their
+start (``robot.configurations``; a change is ``BranchFlip`` where it happens). Then each
 blend: Cartesian-Cartesian in Cartesian space (``pose_blend``, then IK seeded from the incoming
 segment), anything with a PTP in joint space (``joint_blend``). A failure is raised with
 ``extra["segment"]`` and ``s`` within that segment; ``build`` returns what was planned before it
@@ -12,7 +14,7 @@ when the caller asks for a partial plan.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,7 +23,7 @@ from core.program.geometry.blend import joint_blend, pose_blend, sphere_crossing
 from core.program.geometry.paths import SegmentPath, cartesian_path, sample_grid
 from core.program.segments import ProgramTask, Segment
 from core.program.validate import Layout
-from core.program.walk import walk
+from core.program.walk import Walk, walk
 
 BLEND_INTERVALS = 40
 """Sample intervals of a blend: as dense as the segments near it, so the path spline through the
@@ -76,26 +78,76 @@ def _ptp_goal(task: ProgramTask, i: int, seg: Segment, q: np.ndarray) -> np.ndar
                 field=("segments", i, "goal", "positions"),
             )
         return goal
-    label_of = getattr(robot, "configuration", None)
-    if seg.configuration is not None and label_of is None:
+    labels = tuple(getattr(robot, "configuration_labels", ()) or ())
+    if seg.configuration is not None and not labels:
         raise InputError(
-            "this robot has no configuration labels yet",
+            "this robot has no configuration labels",
             field=("segments", i, "goal", "configuration"),
         )
-    r = robot.ik(seg.goal_pose, q)
-    if not r.success:
-        raise _tag(Unreachable(f"no IK solution for segment {i}'s goal pose within limits"), i, 1.0)
-    found = np.asarray(r.positions, dtype=float)
-    if seg.configuration is not None and label_of(found) != seg.configuration:
-        raise _tag(
-            Unreachable(
-                f"the IK solution nearest the current joints has configuration "
-                f"{label_of(found)!r}, not the requested one"
-            ),
-            i,
-            1.0,
+    if seg.configuration is not None and seg.configuration not in labels:
+        raise InputError(
+            f"unknown configuration label; this robot's labels are {', '.join(labels)}",
+            field=("segments", i, "goal", "configuration"),
+            extra={"configurations": list(labels)},
         )
-    return found
+    ik_all = getattr(robot, "ik_all", None)
+    if ik_all is None:  # a kinematics without every-solution IK: the nearest one
+        r = robot.ik(seg.goal_pose, q)
+        if not r.success:
+            raise _tag(
+                Unreachable(f"no IK solution for segment {i}'s goal pose within limits"), i, 1.0
+            )
+        return np.asarray(r.positions, dtype=float)
+    sols = ik_all(seg.goal_pose, q)
+    if len(sols.positions) == 0:
+        raise _tag(Unreachable(f"no IK solution for segment {i}'s goal pose within limits"), i, 1.0)
+    Q = np.asarray(sols.positions, dtype=float)
+    if seg.configuration is None:
+        pick = np.arange(len(Q))
+    else:
+        pick = np.flatnonzero([c == seg.configuration for c in sols.configurations])
+        if not pick.size:
+            found = sorted({c for c in sols.configurations if c is not None})
+            raise _tag(
+                Unreachable(
+                    f"segment {i}'s goal pose has no IK solution with configuration "
+                    f"{seg.configuration!r} within the limits; it has {', '.join(found)}",
+                    extra={"configurations": found},
+                ),
+                i,
+                1.0,
+            )
+    # Nearest the current joints (ik_all sorts by distance already; made explicit here).
+    return Q[pick[int(np.argmin(np.linalg.norm(Q[pick] - q, axis=1)))]]
+
+
+def _keep_label(robot, w: Walk) -> Walk:
+    """``w`` cut before the first sample whose configuration label differs from its start's: a
+    LIN/CIRC (or a Cartesian blend) keeps the label it starts with; a change is ``BranchFlip``."""
+    k = _label_change(robot, w.q)
+    if k is None:
+        return w
+    labels = robot.configurations(w.q[[0, k]])
+    flip = BranchFlip(
+        f"the configuration would change from {labels[0]!r} to {labels[1]!r} at s={w.s[k]:.4f}: "
+        "LIN and CIRC keep the configuration of their start",
+        s=float(w.s[k]),
+        extra={"configurations": list(labels)},
+    )
+    return replace(w, s=w.s[:k], q=w.q[:k], failure=flip)
+
+
+def _label_change(robot, q: np.ndarray) -> int | None:
+    """Index of the first row of ``q`` (K, dof) whose configuration label differs from row 0's,
+    or None (also for robots without labels)."""
+    labels_of = getattr(robot, "configurations", None)
+    if labels_of is None or len(q) < 2:
+        return None
+    labels = labels_of(q)
+    if labels[0] is None:
+        return None
+    bad = [k for k, c in enumerate(labels) if c != labels[0]]
+    return bad[0] if bad else None
 
 
 def build(task: ProgramTask, lay: Layout) -> Geometry:
@@ -134,7 +186,7 @@ def build(task: ProgramTask, lay: Layout) -> Geometry:
             if path is None:
                 sp = SegmentPath(i, seg, None, q, grid, q + grid[:, None] * dq, s_in, s_out)
             else:
-                w = walk(robot, path.poses, q, grid, task.deadline)
+                w = _keep_label(robot, walk(robot, path.poses, q, grid, task.deadline))
                 sp = SegmentPath(i, seg, path, q, w.s, w.q, s_in, s_out)
                 sp.min_singular_value = w.min_singular_value
                 if w.failure is not None:
@@ -196,7 +248,7 @@ def _blends(task: ProgramTask, planned: list[SegmentPath]) -> dict[int, Blend]:
                 lambda x, a=a, sa=sa: a.path.poses(sa(x)), lambda x, b=b, sb=sb: b.path.poses(sb(x))
             )
             q0 = a.joints(np.array([a.s_out]))[0]
-            w = walk(robot, poses, q0, u, task.deadline)
+            w = _keep_label(robot, walk(robot, poses, q0, u, task.deadline))
             if w.failure is not None:
                 raise _tag(w.failure, a.index, a.s_out + float(w.failure.s or 0.0) * span_a)
             q_end = b.joints(np.array([b.s_in]))[0]

@@ -13,8 +13,11 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.kinematics import Kinematics
+from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
 
 SegmentType = Literal["ptp", "lin", "circ"]
+PTP_PROFILES = ("trapezoidal", "quintic", "jerk_limited")
+"""Joint profiles a PTP between stops may ask for (entries of ``core.joint.profiles.PROFILES``)."""
 MAX_SEGMENTS = 100
 DEFAULT_MAX_LINEAR_SPEED = 0.25
 """Tool speed [m/s] of a LIN/CIRC segment without ``max_linear_speed`` (as a single line)."""
@@ -35,6 +38,10 @@ class Segment:
         goal_pose: Goal tool pose (4, 4), or None when ``goal_positions`` is given.
         goal_positions: Goal joint positions (dof,) [rad or m]; for lin/circ their FK is the goal pose.
         configuration: PTP to a pose: the configuration label the IK solution must carry.
+        profile: PTP between stops (not blended at either end): the joint profile of
+            ``core.joint.profiles.PROFILES`` it is timed with (``trapezoidal``, ``quintic``,
+            ``jerk_limited``), under the joint limits times its scales. None, or a PTP inside a
+            blend: the program's common timing (time-optimal along the path, C2).
         interim: CIRC: a point (3,) [m] on the arc.
         center: CIRC: the circle's centre (3,) [m].
         blend_radius: Radius [m] of the blend sphere about this segment's goal position (0: stop).
@@ -42,6 +49,11 @@ class Segment:
         acceleration_scale: Share (0, 1] of the joint acceleration limits.
         max_linear_speed: LIN/CIRC tool speed limit [m/s] (None: ``DEFAULT_MAX_LINEAR_SPEED``).
         max_angular_speed: LIN/CIRC tool angular speed limit [rad/s].
+        speed_profile: LIN/CIRC: ``"trapezoidal"`` (the program's time-optimal timing) or
+            ``"s_curve"``: the stretch between stops holding this segment is timed as one S-curve
+            (continuous path acceleration, path jerk limited by the tool jerk limits).
+        max_linear_jerk: S-curve tool jerk limit [m/s^3] (None: ``DEFAULT_LINEAR_JERK``).
+        max_angular_jerk: S-curve tool angular jerk limit [rad/s^3] (None: ``DEFAULT_ANGULAR_JERK``).
         position_tolerance: LIN/CIRC allowed deviation from the path [m].
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
     """
@@ -50,6 +62,7 @@ class Segment:
     goal_pose: np.ndarray | None = None
     goal_positions: np.ndarray | None = None
     configuration: str | None = None
+    profile: str | None = None
     interim: np.ndarray | None = None
     center: np.ndarray | None = None
     blend_radius: float = 0.0
@@ -57,8 +70,17 @@ class Segment:
     acceleration_scale: float = 1.0
     max_linear_speed: float | None = None
     max_angular_speed: float | None = None
+    speed_profile: str = "trapezoidal"
+    max_linear_jerk: float | None = None
+    max_angular_jerk: float | None = None
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
+
+    def tool_jerks(self) -> tuple[float, float]:
+        """S-curve tool jerk limits [m/s^3], [rad/s^3] (defaults where not given)."""
+        lin = DEFAULT_LINEAR_JERK if self.max_linear_jerk is None else self.max_linear_jerk
+        ang = DEFAULT_ANGULAR_JERK if self.max_angular_jerk is None else self.max_angular_jerk
+        return lin, ang
 
     @property
     def cartesian(self) -> bool:

@@ -17,7 +17,7 @@ import numpy as np
 from core.errors import InputError
 from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
-from core.program.segments import MAX_SEGMENTS, ProgramTask
+from core.program.segments import MAX_SEGMENTS, PTP_PROFILES, ProgramTask
 
 ZERO_LENGTH = 1e-9
 """A segment moving the tool less than this [m] and [rad] (PTP: joints, [rad]) is skipped."""
@@ -59,6 +59,29 @@ def layout(task: ProgramTask) -> Layout:
         for name in ("velocity_scale", "acceleration_scale"):
             if not 0.0 < getattr(seg, name) <= 1.0:
                 raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
+        if seg.speed_profile not in ("trapezoidal", "s_curve") or (
+            seg.speed_profile == "s_curve" and not seg.cartesian
+        ):
+            raise InputError(
+                "speed_profile must be trapezoidal or s_curve (LIN/CIRC segments)",
+                field=("segments", i, "speed_profile"),
+            )
+        for name in ("max_linear_jerk", "max_angular_jerk"):
+            value = getattr(seg, name)
+            if value is not None and not (np.isfinite(value) and value > 0.0):
+                raise InputError(f"{name} must be > 0", field=("segments", i, name))
+        if seg.profile is not None:
+            if seg.type != "ptp" or seg.profile not in PTP_PROFILES:
+                raise InputError(
+                    f"profile must be one of {', '.join(PTP_PROFILES)} (PTP segments only)",
+                    field=("segments", i, "profile"),
+                )
+            if seg.profile == "jerk_limited" and getattr(robot, "jerk_limits", None) is None:
+                raise InputError(
+                    f"the jerk_limited profile needs the robot's jerk limits; {robot.name} "
+                    "publishes none",
+                    field=("segments", i, "profile"),
+                )
         if seg.goal_pose is not None:
             T_goal = np.asarray(seg.goal_pose, dtype=float)
         elif seg.goal_positions is not None:

@@ -20,7 +20,7 @@ import numpy as np
 
 from core.budget import Deadline
 from core.cartesian.plan import plan
-from core.cartesian.task import CartesianResult, CartesianTask
+from core.cartesian.task import CartesianResult, CartesianTask, PathSpec
 from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
@@ -32,7 +32,8 @@ _SAME_NAMED = tuple(
     sorted(
         {f.name for f in dataclasses.fields(CartesianTask)}
         & set(CartesianTaskSpec.model_fields)
-        - {"robot"}  # the request names it; the task holds the resolved model
+        - {"robot", "path"}  # the request names the robot (the task holds the resolved model);
+        # the path shape becomes a ``PathSpec``
     )
 )
 """Request fields passed to ``CartesianTask`` as they are (same name, same units): the timing,
@@ -98,7 +99,14 @@ def task_from_spec(
     if spec.environment is not None:
         urdf = environment.inline_urdf(spec.robot)
         clearance = environment.checker(robot, spec.environment, urdf, environment_field)  # type: ignore[arg-type]
-    return CartesianTask(
+    shape = spec.path
+    path = PathSpec(
+        kind=shape.type,
+        interim=None if shape.interim is None else np.asarray(shape.interim, dtype=float),
+        center=None if shape.center is None else np.asarray(shape.center, dtype=float),
+    )
+    task = CartesianTask(
+        path=path,
         robot=robot,
         q_start=q_start,
         T_goal=T_goal,
@@ -109,6 +117,8 @@ def task_from_spec(
         clearance=clearance,
         **same_named,
     )
+    task.line()  # bad circle geometry: 422 validation at path.* before any method runs
+    return task
 
 
 def run(

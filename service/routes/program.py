@@ -65,8 +65,16 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
             "acceleration_scale": s.acceleration_scale,
         }
         if isinstance(s, PtpSegment):
-            segments.append(Segment("ptp", configuration=s.goal.configuration, **common))
+            segments.append(
+                Segment("ptp", configuration=s.goal.configuration, profile=s.profile, **common)
+            )
             continue
+        if s.method != "sampled":
+            raise InputError(
+                "only method 'sampled' is supported in programs (bounded_deviation is planned "
+                "for single lines only)",
+                field=("segments", i, "method"),
+            )
         extra: dict[str, Any] = {}
         if isinstance(s, CircSegment):
             extra = {
@@ -78,6 +86,9 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
                 s.type,
                 max_linear_speed=s.max_linear_speed,
                 max_angular_speed=s.max_angular_speed,
+                speed_profile=s.speed_profile,
+                max_linear_jerk=s.max_linear_jerk,
+                max_angular_jerk=s.max_angular_jerk,
                 position_tolerance=s.tolerance.position,
                 orientation_tolerance=s.tolerance.orientation,
                 **common,
@@ -159,7 +170,23 @@ def result_body(
         "acceleration limits (times each segment's scales) hold. Without a blend the robot stops "
         "at the goal. Every segment goal and blend window boundary is a returned point. A failing "
         "segment is 422 with `code`, `segment` and `s`; with `allow_partial` 200 with the program "
-        "up to it."
+        "up to it.\n\n"
+        "PTP to a pose: the IK solution with `goal.configuration` (a label of /v1/robots/{name}/ik, "
+        "e.g. `left-up-noflip`) nearest the current joints, else the nearest of all; a label the "
+        "pose has no solution with is 422 `unreachable` naming the labels it has. LIN and CIRC "
+        "keep the configuration label of their start (a change on the way is `branch_flip` at "
+        "its `s`).\n\n"
+        "PTP `profile` (`trapezoidal`, `quintic`, `jerk_limited`) times a PTP between stops (no "
+        "blend at either end) rest to rest, as on /v1/trajectories/joint, under the joint limits "
+        "times its scales (`jerk_limited`: the robot's jerk limits; none published: 422 "
+        "`validation`). Inside a blend a profile has no meaning: the blended stretch is timed as "
+        "one motion (time-optimal along the path, q'' continuous), and the profile is ignored "
+        "with a warning. Without `profile` a PTP follows that common timing too.\n\n"
+        "LIN/CIRC `speed_profile: s_curve` times its whole stretch between stops as one S-curve "
+        "(continuous path acceleration, tool jerk within `max_linear_jerk`). Only `method: "
+        "sampled` is supported in programs (`bounded_deviation` is 422 `validation`).\n\n"
+        "`diagnostics.peak_jerk` (and peak velocity/acceleration) are of the analytic q(t): exact "
+        "for PTP profiles, over a dense grid (10 per timing knot interval) elsewhere."
     ),
 )
 def program_trajectory(

@@ -8,15 +8,18 @@ on the robot (``start.positions``, ``goal.positions``) are checked in ``service/
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from core.cartesian.methods import METHODS
+from core.cartesian.task import SPEED_PROFILES
+from core.path import PATHS
 from service.schemas.common import (
     MAX_DURATION,
     JointPositions,
     Pose,
+    Position,
     RobotRef,
     StrictModel,
     TrajectoryResponse,
@@ -31,6 +34,46 @@ MAX_LINEAR_SPEED = 10.0
 """Largest ``max_linear_speed`` [m/s] accepted."""
 MAX_ANGULAR_SPEED = 100.0
 """Largest ``max_angular_speed`` [rad/s] accepted."""
+MAX_LINEAR_JERK = 1e4
+"""Largest ``max_linear_jerk`` [m/s^3] accepted."""
+MAX_ANGULAR_JERK = 1e5
+"""Largest ``max_angular_jerk`` [rad/s^3] accepted."""
+
+PathType = Literal[tuple(PATHS)]  # type: ignore[valid-type]
+"""The path shapes, built from the registry ``core.path.PATHS`` (``line``, ``circ``)."""
+SpeedProfile = Literal[SPEED_PROFILES]  # type: ignore[valid-type]
+"""The path-speed profiles (``core.cartesian.task.SPEED_PROFILES``)."""
+Point3 = Annotated[
+    list[Position],
+    Field(min_length=3, max_length=3, description="A point [x, y, z] in [m] in the base frame."),
+]
+
+
+class PathShape(StrictModel):
+    """The tool path: the straight line (default), or a circle arc through ``interim`` or about
+    ``center`` (the shorter arc); orientation by slerp either way."""
+
+    type: PathType = Field(  # type: ignore[valid-type]
+        default="line",
+        description="line (default) | circ: the tool point on the circle arc from FK(start) to the goal.",
+    )
+    interim: Point3 | None = Field(
+        default=None,
+        description="circ: a point [m] the arc passes through (not collinear with start and goal).",
+    )
+    center: Point3 | None = Field(
+        default=None,
+        description="circ: the circle's centre [m]; start and goal equidistant from it within "
+        "1e-4 m; the shorter arc (not a half turn).",
+    )
+
+    @model_validator(mode="after")
+    def _circle(self) -> Any:
+        if self.type == "line" and (self.interim is not None or self.center is not None):
+            raise ValueError("a line takes no interim or center")
+        if self.type == "circ" and (self.interim is None) == (self.center is None):
+            raise ValueError("a circ path needs exactly one of interim or center")
+        return self
 
 
 class CartesianStart(StrictModel):
@@ -147,6 +190,29 @@ class CartesianTaskSpec(StrictModel):
         description="Accept a plan that leaves the tolerance between its returned points or exceeds "
         "a joint's acceleration limit (the warnings say where and by how much). Default: such a "
         "plan is 422 (infeasible or joint_rate_limit) naming the cause and what to change.",
+    )
+    path: PathShape = Field(
+        default_factory=PathShape,
+        description='The path shape: {"type": "line"} (default) | {"type": "circ", "interim": '
+        '[x, y, z]} | {"type": "circ", "center": [x, y, z]}; bad circle geometry is 422 at path.*.',
+    )
+    speed_profile: SpeedProfile = Field(  # type: ignore[valid-type]
+        default="trapezoidal",
+        description="trapezoidal (default: speed-limited trapezoid, or quintic with a duration) | "
+        "s_curve: path acceleration continuous, path jerk within max_linear_jerk/max_angular_jerk; "
+        "joint velocity and acceleration limits still hold.",
+    )
+    max_linear_jerk: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_LINEAR_JERK,
+        description="s_curve: tool jerk limit [m/s^3], 1e-6 to 1e4 (default 10).",
+    )
+    max_angular_jerk: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_ANGULAR_JERK,
+        description="s_curve: tool angular jerk limit [rad/s^3], 1e-6 to 1e5 (default 20).",
     )
     solver: str = Field(
         default="osqp",

@@ -24,6 +24,10 @@ from service.schemas.common import (
 )
 from service.schemas.environment import Environment
 
+MAX_LINEAR_JERK = 1e5
+"""Largest ``max_linear_jerk`` [m/s^3] accepted."""
+MAX_ANGULAR_JERK = 1e6
+"""Largest ``max_angular_jerk`` [rad/s^3] accepted."""
 MAX_BLEND_RADIUS = 10.0
 """Largest ``blend_radius`` [m] accepted (it must also be at most half of either neighbour)."""
 
@@ -61,7 +65,10 @@ class PtpGoal(StrictModel):
         max_length=64,
         pattern=r"^[A-Za-z0-9_-]+$",
         description="Configuration label the IK solution must carry (with pose; robots that "
-        "have labels).",
+        "have labels, e.g. UR5 `left-up-noflip`): the solution with this label nearest the "
+        "current joints. Without it: the solution nearest the current joints. A label the pose "
+        "has no solution with is 422 `unreachable` with `segment` and `configurations` (the "
+        "labels it has); a label the robot does not know is 422 `validation` here.",
     )
 
     @model_validator(mode="after")
@@ -105,10 +112,16 @@ class PtpSegment(_Common):
     goal: PtpGoal = Field(
         description="Goal joint positions, or a tool pose (IK nearest the joints)."
     )
-    profile: Literal["trapezoidal", "quintic"] = Field(
-        default="trapezoidal",
-        description="Accepted for compatibility: every PTP is timed with the program (time-optimal "
-        "under the scaled joint limits, C2 through a quintic spline).",
+    profile: Literal["trapezoidal", "quintic", "jerk_limited"] | None = Field(
+        default=None,
+        description="Joint profile of a PTP between stops (no blend into or out of it), rest to "
+        "rest under the joint limits times velocity_scale/acceleration_scale, as on "
+        "/v1/trajectories/joint: `trapezoidal` (acceleration steps at the ramp ends), `quintic`, "
+        "`jerk_limited` (Ruckig, the robot's jerk limits, e.g. Panda 7500 rad/s^3; a robot "
+        "without published jerk limits is 422 `validation` here). Absent: the program's common "
+        "timing (time-optimal along the path, q'' continuous). Inside a blend a profile has no "
+        "meaning (the blend is timed with its neighbours as one motion): it is ignored with a "
+        "warning.",
     )
 
 
@@ -130,8 +143,33 @@ class _CartesianSegment(_Common):
     )
     method: Literal["sampled", "bounded_deviation"] = Field(
         default="sampled",
-        description="Accepted; a program plans its lines and arcs by sampled IK (every sample "
-        "on the path, deviation measured between the returned points).",
+        description="Only `sampled` is supported in programs: lines and arcs are planned by "
+        "sampled IK (every sample on the path, deviation measured densely between the returned "
+        "points). `bounded_deviation` (Taylor knots) is 422 `validation` at this field.",
+    )
+    speed_profile: Literal["trapezoidal", "s_curve"] = Field(
+        default="trapezoidal",
+        description="`trapezoidal` (default): the program's time-optimal timing under the joint "
+        "velocity/acceleration caps and the tool speed limits (path acceleration continuous, "
+        "jerk not limited). `s_curve`: the whole stretch between stops that holds this segment "
+        "is timed with continuous path acceleration and bounded path jerk: an S-curve (Ruckig) "
+        "through a smooth speed shape that follows the joint and tool speed caps along the "
+        "path (slower in sharp blends only), with the tool's linear jerk within "
+        "`max_linear_jerk` (checked densely, blend curvature included; over it, the shape is "
+        "lowered there) and the S-curve's path jerk within `max_angular_jerk` over the largest "
+        "angular rate per unit path, still under the joint velocity/acceleration caps.",
+    )
+    max_linear_jerk: float | None = Field(
+        default=None,
+        gt=0.0,
+        le=MAX_LINEAR_JERK,
+        description="s_curve: tool jerk limit [m/s^3] (default 10).",
+    )
+    max_angular_jerk: float | None = Field(
+        default=None,
+        gt=0.0,
+        le=MAX_ANGULAR_JERK,
+        description="s_curve: tool angular jerk limit [rad/s^3] (default 20).",
     )
     tolerance: Tolerance = Field(
         default_factory=Tolerance,

@@ -31,6 +31,11 @@
     compareDownload: null,
     runs: 0,
     webgl: null,
+    obstacles: [], // [{name, type: 'box' | 'sphere', position: [x, y, z], size: [..3] | radius}]
+    obstacleCount: 0,
+    ikGhosts: [], // [{label, pts}]: every IK solution of the goal pose, drawn as ghost arms
+    program: [], // segments of the program editor (see programSegment)
+    lastToolMid: null,
   };
 
   function fmt(v, digits) {
@@ -280,9 +285,14 @@
     buildCartesianForm();
     buildJointForm();
     buildSplineForm();
+    buildProgramForm();
+    $('geometry-toggle').hidden = !(Array.isArray(r.collision_geometry) && r.collision_geometry.length);
     // The pose fields start at FK(goal joints), so switching to a pose goal is one click.
     const a = await fk(jointValues('c-goal'));
     if (a) setPose(a.pose);
+    state.ikGhosts = [];
+    $('c-ik-list').hidden = true;
+    updateConfigs();
   }
 
   function offsetHome(delta) {
@@ -325,14 +335,15 @@
     const table = $('j-table');
     table.textContent = '';
     table.append(el('tr', {}, el('th', {}, 'joint'), el('th', {}, 'start'), el('th', {}, 'goal'),
-      el('th', {}, 'v max'), el('th', {}, 'a max')));
+      el('th', {}, 'v max'), el('th', {}, 'a max'), el('th', { class: 'jerk-col' }, 'j max')));
     const goal = offsetHome([0.6, -0.4, 0.5]);
     r.joint_names.forEach((name, j) => {
       table.append(el('tr', {}, el('th', { title: `${name} ${limitHint(j)}` }, name),
         el('td', {}, numberInput(`j-start-${j}`, r.home[j])),
         el('td', {}, numberInput(`j-goal-${j}`, goal[j])),
         el('td', {}, numberInput(`j-vmax-${j}`, r.limits.velocity[j], { class: 'limit' })),
-        el('td', {}, numberInput(`j-amax-${j}`, r.limits.acceleration[j], { class: 'limit' }))));
+        el('td', {}, numberInput(`j-amax-${j}`, r.limits.acceleration[j], { class: 'limit' })),
+        el('td', { class: 'jerk-col' }, numberInput(`j-jmax-${j}`, robotJerk(j), { class: 'jerk' }))));
     });
     syncJointTiming();
   }
@@ -368,10 +379,18 @@
     table.append(row);
   }
 
+  /** The robot's jerk limit of joint j (null where the maker publishes none: then 20 a max). */
+  function robotJerk(j) {
+    const r = state.robot;
+    const jerk = r.limits.jerk;
+    return Array.isArray(jerk) && Number.isFinite(jerk[j]) ? jerk[j] : 20 * r.limits.acceleration[j];
+  }
   function syncJointTiming() {
     const limits = checked('j-timing') === 'limits';
+    const jerk = $('j-profile').value === 'jerk_limited';
     $('j-duration-box').hidden = limits;
-    document.querySelectorAll('#j-table input.limit').forEach((n) => { n.disabled = !limits; });
+    document.querySelectorAll('#j-table input.limit').forEach((n) => { n.disabled = !limits && !jerk; });
+    document.querySelectorAll('#j-table .jerk-col').forEach((n) => { n.hidden = !jerk; });
   }
   function syncSplineTimes() {
     const on = $('s-times').checked;
@@ -415,7 +434,7 @@
     const control = num('c-control');
     if (control !== undefined && RATE_METHODS.includes(req.method)) req.control_period = control;
     if ($('c-partial').checked) req.allow_partial = true;
-    return req;
+    return withEnvironment(req);
   }
 
   function jointRequest() {
@@ -427,9 +446,14 @@
     };
     if (checked('j-timing') === 'duration') req.duration = num('j-duration');
     else req.limits = { velocity: jointValues('j-vmax'), acceleration: jointValues('j-amax') };
+    if (req.profile === 'jerk_limited') {
+      // limits.jerk only with jerk_limited (the other profiles' schema has no jerk).
+      req.limits = { velocity: jointValues('j-vmax'), acceleration: jointValues('j-amax'),
+        jerk: jointValues('j-jmax') };
+    }
     const period = num('j-period');
     if (period !== undefined) req.sample_period = period;
-    return req;
+    return withEnvironment(req);
   }
 
   function splineRequest() {
@@ -443,7 +467,7 @@
     if ($('s-times').checked) req.times = Array.from({ length: rows }, (_, i) => num(`s-t-${i}`));
     const period = num('s-period');
     if (period !== undefined) req.sample_period = period;
-    return req;
+    return withEnvironment(req);
   }
 
   // ---------------------------------------------------------------- problem, summary, warnings
@@ -508,17 +532,39 @@
       items.push(['peak |v| / limit', `${(100 * vr).toFixed(1)} %`]);
       items.push(['peak |a| / limit', `${(100 * ar).toFixed(1)} %`]);
     }
+    if (d.min_clearance !== undefined && d.min_clearance !== null) {
+      items.push(['min clearance', `${fmt(d.min_clearance, 3)} m`]);
+      if (d.closest && Array.isArray(d.closest.links)) {
+        items.push(['closest', `${d.closest.links.join(' – ')} at t=${fmt(d.closest.time_from_start, 3)} s`]);
+      }
+    }
+    if (Array.isArray(d.peak_jerk) && d.peak_jerk.length) {
+      items.push(['peak |jerk|', `${fmt(Math.max(...d.peak_jerk.map(Math.abs)), 4)} rad/s³`]);
+    }
     (extra || []).forEach((e) => items.push(e));
     items.filter(([, v]) => v !== undefined && v !== null).forEach(([k, v]) => {
       box.append(el('div', { class: 'kv' }, el('span', { class: 'k' }, k),
         el('span', { class: 'v' }, typeof v === 'number' ? fmt(v) : String(v))));
     });
+    box.append(el('span', { id: 'summary-end', hidden: true }));
     const rest = Object.assign({}, d);
     delete rest.deviation_profile;
     delete rest.singular_value_profile;
     box.append(el('details', { class: 'all-diag' }, el('summary', {}, 'all diagnostics'),
       el('pre', {}, JSON.stringify(rest, null, 2))));
     box.hidden = false;
+  }
+
+  /** Configuration labels of start and goal (from /fk), added to the summary once known. */
+  function addConfigurations(start, goal) {
+    const anchor = $('summary-end');
+    if (!anchor) return;
+    [['start configuration', start, 'summary-config-start'], ['goal configuration', goal, 'summary-config-goal']]
+      .forEach(([k, v, id]) => {
+        if (!v) return;
+        anchor.before(el('div', { class: 'kv', id: id }, el('span', { class: 'k' }, k),
+          el('span', { class: 'v' }, v)));
+      });
   }
 
   function renderWarnings(marks) {
@@ -537,7 +583,20 @@
     { key: 'positions', title: 'position', unit: 'rad' },
     { key: 'velocities', title: 'velocity', unit: 'rad/s' },
     { key: 'accelerations', title: 'acceleration', unit: 'rad/s²' },
+    { key: 'jerk', title: 'jerk (finite differences of a)', unit: 'rad/s³' },
   ];
+
+  /** Jerk of joint j at every point: central differences of the returned accelerations. */
+  function jerkOf(points, j) {
+    const n = points.length;
+    return points.map((p, i) => {
+      if (n < 2) return 0;
+      const a = points[Math.max(0, i - 1)];
+      const b = points[Math.min(n - 1, i + 1)];
+      const dt = b.time_from_start - a.time_from_start;
+      return dt > 0 ? (b.accelerations[j] - a.accelerations[j]) / dt : 0;
+    });
+  }
   let lastJoints = null; // arguments of the last renderJoints, to redraw on the zoom toggle
 
   /** [lo, hi] of the finite numbers in ``values``, or null. */
@@ -574,7 +633,7 @@
     const positionLimitsInView = $('j-zoom-limits').checked;
     const traces = [];
     const layout = baseLayout({
-      grid: { rows: 3, columns: 1, pattern: 'coupled', roworder: 'top to bottom', ygap: 0.12 },
+      grid: { rows: QUANTITIES.length, columns: 1, pattern: 'coupled', roworder: 'top to bottom', ygap: 0.1 },
       xaxis: axis('time [s]'),
       hovermode: 'x unified',
       legend: { font: { size: 11 }, tracegroupgap: 2 },
@@ -587,7 +646,7 @@
       const lims = [];
       names.forEach((name, j) => {
         const color = COLORS[j % COLORS.length];
-        const y = body.points.map((p) => p[q.key][j]);
+        const y = q.key === 'jerk' ? jerkOf(body.points, j) : body.points.map((p) => p[q.key][j]);
         data.push(...y);
         traces.push({ type: 'scatter', mode: 'lines', name: name, legendgroup: name,
           showlegend: row === 0, x: t, y: y, xaxis: 'x', yaxis: `y${ax}`,
@@ -596,7 +655,11 @@
         let lo;
         let hi;
         if (q.key === 'positions') [lo, hi] = limits.position[j];
-        else {
+        else if (q.key === 'jerk') {
+          if (!Array.isArray(limits.jerk) || !Number.isFinite(limits.jerk[j])) return; // none known
+          hi = limits.jerk[j];
+          lo = -hi;
+        } else {
           hi = (q.key === 'velocities' ? limits.velocity : limits.acceleration)[j];
           lo = -hi;
         }
@@ -639,22 +702,25 @@
   }
 
   // ---------------------------------------------------------------- Cartesian geometry
-  async function fk(positions) {
-    const res = await api('POST', `/v1/robots/${encodeURIComponent(robotName())}/fk`,
-      { positions: positions });
+  async function fk(positions, frames) {
+    const req = { positions: positions };
+    if (frames) req.frames = true; // every link frame in kinematic order: the arm's polyline
+    const res = await api('POST', `/v1/robots/${encodeURIComponent(robotName())}/fk`, req);
     return res.ok ? res.json : null;
   }
+  const framePoints = (a) => (a && Array.isArray(a.frames) ? a.frames.map((f) => f.position) : null);
 
   /** The ideal line: FK(start) to the goal pose (FK(goal.positions) for a joint goal). */
   async function lineOf(req) {
     const [a, b] = await Promise.all([
-      fk(req.start.positions),
-      req.goal.positions ? fk(req.goal.positions) : Promise.resolve({ pose: req.goal.pose }),
+      fk(req.start.positions, true),
+      req.goal.positions ? fk(req.goal.positions, true) : Promise.resolve({ pose: req.goal.pose }),
     ]);
     if (!a || !b) return null;
     const p0 = a.pose.position;
     const p1 = b.pose.position;
-    return { p0: p0, p1: p1, at: (s) => p0.map((v, i) => v + s * (p1[i] - v)) };
+    return { p0: p0, p1: p1, at: (s) => p0.map((v, i) => v + s * (p1[i] - v)),
+      startFk: a, goalFk: b.frames ? b : null };
   }
 
   function subsample(n, most) {
@@ -684,13 +750,13 @@
   }
 
   /** Tool positions of at most MAX_FK_POINTS returned points (POST /fk per point, a few at a time). */
-  async function toolPath(body, line) {
+  async function toolPath(body, line, indices) {
     const points = body.points;
-    const idx = subsample(points.length, MAX_FK_POINTS);
-    const poses = await mapLimit(idx, FK_CONCURRENCY, (i) => fk(points[i].positions));
+    const idx = indices || subsample(points.length, MAX_FK_POINTS);
+    const poses = await mapLimit(idx, FK_CONCURRENCY, (i) => fk(points[i].positions, true));
     const diag = body.diagnostics || {};
     const sAt = sOfTime(diag.deviation_profile);
-    const out = { p: [], t: [], s: [], sigma: [] };
+    const out = { p: [], t: [], s: [], sigma: [], arm: [], config: [], frames: [] };
     idx.forEach((i, k) => {
       if (!poses[k]) return;
       const p = poses[k].pose.position;
@@ -702,6 +768,8 @@
         s = dd > 1e-18 ? d.reduce((acc, v, c) => acc + v * (p[c] - line.p0[c]), 0) / dd : null;
       }
       out.p.push(p); out.t.push(t); out.s.push(s); out.sigma.push(poses[k].min_singular_value);
+      out.arm.push(framePoints(poses[k])); out.config.push(poses[k].configuration || null);
+      if (out.frames.length === 0) out.frames.push(poses[k].frames || null); // the first point's frames
     });
     return out;
   }
@@ -719,24 +787,317 @@
     return state.webgl;
   }
 
+  // ---------------------------------------------------------------- 3D scenes: arm, obstacles, spheres
+  const ARM_COLOR = '#374151';
+
+  /** Unit quaternion (x, y, z, w) applied to a vector. */
+  function rotate(qt, v) {
+    const [x, y, z, w] = qt;
+    const tx = 2 * (y * v[2] - z * v[1]);
+    const ty = 2 * (z * v[0] - x * v[2]);
+    const tz = 2 * (x * v[1] - y * v[0]);
+    return [v[0] + w * tx + (y * tz - z * ty), v[1] + w * ty + (z * tx - x * tz),
+      v[2] + w * tz + (x * ty - y * tx)];
+  }
+  /** Three great circles of a sphere, as one polyline with null breaks. */
+  function sphereWire(c, r) {
+    const pts = [];
+    [[0, 1], [0, 2], [1, 2]].forEach(([i, j]) => {
+      for (let k = 0; k <= 40; k++) {
+        const a = (2 * PI * k) / 40;
+        const p = c.slice();
+        p[i] += r * Math.cos(a);
+        p[j] += r * Math.sin(a);
+        pts.push(p);
+      }
+      pts.push(null);
+    });
+    return pts;
+  }
+  function sphereCloud(c, r) {
+    const pts = [];
+    for (let i = 0; i <= 8; i++) {
+      const th = (PI * i) / 8;
+      for (let k = 0; k < 16; k++) {
+        const ph = (2 * PI * k) / 16;
+        pts.push([c[0] + r * Math.sin(th) * Math.cos(ph), c[1] + r * Math.sin(th) * Math.sin(ph),
+          c[2] + r * Math.cos(th)]);
+      }
+    }
+    return pts;
+  }
+  function boxCorners(c, size, qt) {
+    const out = [];
+    [-1, 1].forEach((sx) => [-1, 1].forEach((sy) => [-1, 1].forEach((sz) => {
+      const v = rotate(qt || [0, 0, 0, 1], [sx * size[0] / 2, sy * size[1] / 2, sz * size[2] / 2]);
+      out.push([c[0] + v[0], c[1] + v[1], c[2] + v[2]]);
+    })));
+    return out;
+  }
+  function boxWire(corners) {
+    const edges = [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5],
+      [2, 6], [3, 7]];
+    const pts = [];
+    edges.forEach(([i, j]) => pts.push(corners[i], corners[j], null));
+    return pts;
+  }
+
+  /** Scene items of the work cell's obstacles (wireframe, and a translucent hull in 3D). */
+  function obstacleItems() {
+    const items = [];
+    state.obstacles.forEach((o) => {
+      const c = o.position;
+      const hull = o.type === 'box' ? boxCorners(c, o.size) : sphereCloud(c, o.radius);
+      const wire = o.type === 'box' ? boxWire(hull) : sphereWire(c, o.radius);
+      items.push({ name: `obstacle ${o.name}`, pts: wire, meta: { role: 'obstacle', name: o.name },
+        style: { mode: 'lines', line: { color: '#b45309', width: 3 }, hoverinfo: 'name' } });
+      items.push({ name: `${o.name} (solid)`, pts: hull, mesh: true, meta: { role: 'obstacle-solid' },
+        style: { alphahull: 0, opacity: 0.25, color: '#f59e0b', showlegend: false, hoverinfo: 'skip' } });
+    });
+    return items;
+  }
+
+  /** Quaternion product a * b, both (x, y, z, w). */
+  function quatMul(a, b) {
+    const [ax, ay, az, aw] = a;
+    const [bx, by, bz, bw] = b;
+    return [aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+      aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz];
+  }
+  /** Wireframe of one collision shape in its own frame (capsule and cylinder along local z). */
+  function shapeWire(shape) {
+    const ring = (r, z, plane) => {
+      const out = [];
+      for (let k = 0; k <= 24; k++) {
+        const a = (2 * PI * k) / 24;
+        out.push(plane === 'xy' ? [r * Math.cos(a), r * Math.sin(a), z] : null);
+      }
+      out.push(null);
+      return out;
+    };
+    const arc = (r, z, sign, axis) => {
+      const out = [];
+      for (let k = 0; k <= 12; k++) {
+        const a = (PI * k) / 12;
+        const u = r * Math.cos(a);
+        const w = z + sign * r * Math.sin(a);
+        out.push(axis === 'x' ? [u, 0, w] : [0, u, w]);
+      }
+      out.push(null);
+      return out;
+    };
+    if (shape.type === 'sphere') return sphereWire([0, 0, 0], shape.radius);
+    if (shape.type === 'box') return boxWire(boxCorners([0, 0, 0], shape.size));
+    if (shape.type === 'capsule' || shape.type === 'cylinder') {
+      const r = shape.radius;
+      const h = shape.length / 2;
+      const pts = ring(r, h, 'xy').concat(ring(r, -h, 'xy'));
+      [0, 1, 2, 3].forEach((k) => {
+        const a = (PI * k) / 2;
+        pts.push([r * Math.cos(a), r * Math.sin(a), -h], [r * Math.cos(a), r * Math.sin(a), h], null);
+      });
+      if (shape.type === 'capsule') {
+        ['x', 'y'].forEach((ax) => pts.push(...arc(r, h, 1, ax), ...arc(r, -h, -1, ax)));
+      }
+      return pts;
+    }
+    return [];
+  }
+  /**
+   * The robot's ``collision_geometry`` (GET /v1/robots/{name}, API.md round 2: link, shape, origin
+   * in the link frame) placed by the link frames of one /fk answer; none where the robot has none.
+   */
+  function geometryItems(frames, name) {
+    const geo = state.robot && state.robot.collision_geometry;
+    if (!Array.isArray(geo) || !geo.length || !Array.isArray(frames) || !$('show-geometry').checked) return [];
+    const byName = new Map(frames.map((f) => [f.name, f]));
+    const pts = [];
+    let count = 0;
+    geo.forEach((g) => {
+      const f = byName.get(g.link);
+      if (!f || !g.shape) return;
+      const o = g.origin || { position: [0, 0, 0], orientation: [0, 0, 0, 1] };
+      const r0 = rotate(f.orientation, o.position);
+      const centre = [0, 1, 2].map((c) => f.position[c] + r0[c]);
+      const q = quatMul(f.orientation, o.orientation);
+      shapeWire(g.shape).forEach((v) => {
+        if (!v) { pts.push(null); return; }
+        const w = rotate(q, v);
+        pts.push([centre[0] + w[0], centre[1] + w[1], centre[2] + w[2]]);
+      });
+      pts.push(null);
+      count += 1;
+    });
+    if (!count) return [];
+    return [{ name: name, pts: pts, meta: { role: 'collision-geometry', shapes: count },
+      style: { mode: 'lines', line: { color: '#0d9488', width: 2 }, opacity: 0.8, hoverinfo: 'name' } }];
+  }
+
+  function armItem(name, pts, style, meta) {
+    return { name: name, pts: pts, meta: Object.assign({ frames: pts.length }, meta),
+      style: Object.assign({ mode: 'lines+markers', line: { color: ARM_COLOR, width: 7 },
+        marker: { size: 3, color: ARM_COLOR }, hoverinfo: 'name' }, style || {}) };
+  }
+
+  /** The first contact of a 422 (or partial) ``collision``: the tool sample nearest its time. */
+  function contactItems(failure, tool) {
+    if (!failure || failure.code !== 'collision' || !tool || !tool.p.length) return [];
+    const t = Number(failure.time_from_start);
+    let k = tool.t.length - 1;
+    if (Number.isFinite(t)) {
+      let best = Infinity;
+      tool.t.forEach((tt, i) => { if (Math.abs(tt - t) < best) { best = Math.abs(tt - t); k = i; } });
+    }
+    const links = Array.isArray(failure.links) ? failure.links.join(' – ') : '';
+    const text = `collision at t=${fmt(t, 4)} s${failure.s !== undefined && failure.s !== null ? `, s=${fmt(failure.s, 3)}` : ''}: ${links}, distance ${fmt(failure.distance, 3)} m`;
+    const items = [{ name: `✖ collision at t=${fmt(t, 4)} s (${links})`, pts: [tool.p[k]],
+      meta: { role: 'collision', time_from_start: t, links: failure.links || null },
+      style: { mode: 'markers', text: [text], hovertemplate: '%{text}<extra></extra>',
+        marker: { size: 9, symbol: 'x', color: FAIL_COLOR } } }];
+    if (tool.arm[k]) {
+      items.push(armItem('arm at the contact', tool.arm[k], { line: { color: FAIL_COLOR, width: 6 },
+        marker: { size: 3, color: FAIL_COLOR } }, { role: 'arm', which: 'contact' }));
+    }
+    return items;
+  }
+
+  /**
+   * Draw scene items ({name, pts: [[x, y, z] | null], style, meta, mesh?}) in ``div``: 3D with one
+   * scale on every axis, x-y for the planar arm, top and side views without WebGL. ``anim``
+   * ({arm: [[pts]], t: [...], config: [...]}) adds the arm moving along the trajectory, driven by
+   * the slider under the plot.
+   */
+  function drawScene(div, items, anim, filename, focus) {
+    const dims = isPlanar() ? 2 : 3;
+    const flat = dims === 3 && !webglAvailable();
+    const comps = (pts) => Array.from({ length: 3 }, (_, c) => pts.map((p) => (p ? p[c] : null)));
+    const all = [];
+    // ``focus``: scale the view to the path alone (the arm may then reach out of the box).
+    items.filter((it) => !focus || !(it.meta && /^arm/.test(it.meta.role || '')))
+      .forEach((it) => it.pts.forEach((p) => { if (p) all.push(p); }));
+    if (anim && anim.arm.length) {
+      const k = Math.floor((anim.arm.length - 1) / 2);
+      items.push(armItem('arm (slider)', anim.arm[k] || [], { opacity: 0.9,
+        line: { color: '#7c3aed', width: 7 }, marker: { size: 3, color: '#7c3aed' } },
+      { role: 'arm-moving' }));
+    }
+    const traces = [];
+    const moving = [];
+    items.forEach((it) => {
+      if (it.mesh && (dims === 2 || flat)) return;
+      const [x, y, z] = comps(it.pts);
+      if (it.mesh) {
+        traces.push(Object.assign({ type: 'mesh3d', name: it.name, x: x, y: y, z: z,
+          meta: it.meta || null }, it.style));
+        return;
+      }
+      const base = Object.assign({ name: it.name, x: x, y: y, meta: it.meta || null }, it.style);
+      if (it.meta && it.meta.role === 'arm-moving') moving.push(traces.length);
+      if (dims === 2) { traces.push(Object.assign(base, { type: 'scatter' })); return; }
+      if (!flat) { traces.push(Object.assign(base, { type: 'scatter3d', z: z })); return; }
+      traces.push(Object.assign({}, base, { type: 'scatter', xaxis: 'x', yaxis: 'y' }));
+      if (it.meta && it.meta.role === 'arm-moving') moving.push(traces.length);
+      traces.push(Object.assign({}, base, { type: 'scatter', y: z, xaxis: 'x2', yaxis: 'y2',
+        showlegend: false }));
+    });
+    const legend = { orientation: 'h', y: -0.02, yanchor: 'top', font: { size: 11 } };
+    let layout;
+    if (dims === 2) {
+      layout = baseLayout({ xaxis: axis('x [m]'), yaxis: axis('y [m]', { scaleanchor: 'x', scaleratio: 1 }),
+        legend: Object.assign({}, legend, { y: -0.1 }), margin: { l: 64, r: 16, t: 16, b: 40 } });
+    } else if (flat) {
+      layout = baseLayout({ grid: { rows: 1, columns: 2, pattern: 'independent' },
+        xaxis: axis('x [m] (top view)'), yaxis: axis('y [m]', { scaleanchor: 'x' }),
+        xaxis2: axis('x [m] (side view)'), yaxis2: axis('z [m]', { scaleanchor: 'x2' }),
+        legend: Object.assign({}, legend, { y: -0.1 }), margin: { l: 64, r: 16, t: 16, b: 40 } });
+    } else {
+      const lo = [0, 1, 2].map((c) => Math.min(...all.map((p) => p[c])));
+      const hi = [0, 1, 2].map((c) => Math.max(...all.map((p) => p[c])));
+      const half = 0.55 * Math.max(1e-3, ...hi.map((v, c) => v - lo[c]));
+      const range = (c) => [(lo[c] + hi[c]) / 2 - half, (lo[c] + hi[c]) / 2 + half];
+      layout = baseLayout({
+        scene: { aspectmode: 'cube', xaxis: { title: { text: 'x [m]' }, range: range(0) },
+          yaxis: { title: { text: 'y [m]' }, range: range(1) },
+          zaxis: { title: { text: 'z [m]' }, range: range(2) },
+          camera: { eye: { x: 1.5, y: -1.5, z: 1.1 } } },
+        legend: legend, margin: { l: 0, r: 0, t: 0, b: 40 } });
+    }
+    const node = $(div);
+    node.armAnim = anim && anim.arm.length ? { arm: anim.arm, t: anim.t, config: anim.config,
+      moving: moving, flat: flat, dims: dims } : null;
+    const drawn = draw(div, traces, layout, filename);
+    setupArmBar(div);
+    return drawn;
+  }
+
+  let armTimer = null;
+  function setupArmBar(div) {
+    const bar = document.querySelector(`.arm-bar[data-plot="${div}"]`);
+    if (!bar) return;
+    const a = $(div).armAnim;
+    const slider = bar.querySelector('.arm-slider');
+    bar.hidden = !a;
+    if (!a) return;
+    slider.max = String(a.arm.length - 1);
+    slider.value = String(Math.floor((a.arm.length - 1) / 2));
+    showArm(div, Number(slider.value));
+  }
+  function showArm(div, k) {
+    const node = $(div);
+    const a = node.armAnim;
+    if (!a || !a.arm[k]) return;
+    const pts = a.arm[k];
+    const xs = pts.map((p) => p[0]);
+    const ys = pts.map((p) => p[1]);
+    const zs = pts.map((p) => p[2]);
+    const bar = document.querySelector(`.arm-bar[data-plot="${div}"]`);
+    bar.querySelector('.arm-time').textContent = `t = ${fmt(a.t[k], 4)} s${a.config[k] ? ` · ${a.config[k]}` : ''}`;
+    if (!a.moving.length) return;
+    if (a.dims === 3 && !a.flat) Plotly.restyle(node, { x: [xs], y: [ys], z: [zs] }, a.moving);
+    else if (a.flat) Plotly.restyle(node, { x: [xs, xs], y: [ys, zs] }, a.moving);
+    else Plotly.restyle(node, { x: [xs], y: [ys] }, a.moving);
+  }
+  function wireArmBars() {
+    document.querySelectorAll('.arm-bar').forEach((bar) => {
+      const div = bar.dataset.plot;
+      const slider = bar.querySelector('.arm-slider');
+      bar.hidden = true;
+      slider.addEventListener('input', () => showArm(div, Number(slider.value)));
+      bar.querySelector('.arm-play').addEventListener('click', () => {
+        if (armTimer) { clearInterval(armTimer); armTimer = null; return; }
+        const a = $(div).armAnim;
+        if (!a) return;
+        let k = 0;
+        armTimer = setInterval(() => {
+          slider.value = String(k);
+          showArm(div, k);
+          k += 1;
+          if (k >= a.arm.length) { clearInterval(armTimer); armTimer = null; }
+        }, 60);
+      });
+    });
+  }
+
   // ---------------------------------------------------------------- Cartesian plots
-  function renderPath(line, tool, marks, knotsTool) {
-    const planar = isPlanar();
-    if (!line) {
+  /**
+   * The tool path (FK of the returned points) beside the ideal line (null for joint moves), the
+   * arm at the start and the goal, the moving arm, obstacles and the first contact.
+   */
+  let lastPath = null; // arguments of the last renderPath, to redraw on the geometry toggle
+
+  function renderPath(line, tool, marks, knotsTool, failure) {
+    lastPath = [line, tool, marks, knotsTool, failure];
+    if (!line && !(tool && tool.p.length)) {
       placeholder('plot-path', 'No line: the start (or goal) joints were refused');
       return;
     }
-    const dims = planar ? 2 : 3;
-    const comps = (pts) => Array.from({ length: dims }, (_, c) => pts.map((p) => p[c]));
-    const traces = [];
-    const add = (name, pts, style) => {
-      const [x, y, z] = comps(pts);
-      const trace = Object.assign({ name: name, x: x, y: y }, style);
-      if (dims === 3) { trace.type = 'scatter3d'; trace.z = z; } else trace.type = 'scatter';
-      traces.push(trace);
-    };
-    add('ideal line', [line.p0, line.p1], { mode: 'lines', opacity: 0.45,
-      line: { color: '#6b7280', width: dims === 3 ? 12 : 8 }, hoverinfo: 'skip' });
+    const items = [];
+    const add = (name, pts, style, meta) => items.push({ name: name, pts: pts, style: style, meta: meta });
+    const dims = isPlanar() ? 2 : 3;
+    if (line) {
+      add('ideal line', [line.p0, line.p1], { mode: 'lines', opacity: 0.45,
+        line: { color: '#6b7280', width: dims === 3 ? 12 : 8 }, hoverinfo: 'skip' });
+    }
     if (tool && tool.p.length) {
       add('tool path', tool.p, { mode: 'lines+markers', line: { color: COLORS[0], width: 2 },
         marker: { size: dims === 3 ? 2.5 : 4, color: COLORS[0] },
@@ -747,54 +1108,47 @@
       add('knots', knotsTool, { mode: 'markers',
         marker: { symbol: 'diamond', size: dims === 3 ? 4 : 8, color: '#111' } });
     }
-    add('start', [line.p0], { mode: 'markers', marker: { size: dims === 3 ? 6 : 11, color: COLORS[2] } });
-    add('goal', [line.p1], { mode: 'markers', marker: { size: dims === 3 ? 6 : 11, color: '#111',
+    const p0 = line ? line.p0 : tool.p[0];
+    const p1 = line ? line.p1 : tool.p[tool.p.length - 1];
+    add('start', [p0], { mode: 'markers', marker: { size: dims === 3 ? 6 : 11, color: COLORS[2] } });
+    add('goal', [p1], { mode: 'markers', marker: { size: dims === 3 ? 6 : 11, color: '#111',
       symbol: dims === 3 ? 'square' : 'star' } });
-    marks.filter((m) => m.s !== null).forEach((m) => {
-      add(m.kind === 'failure' ? `${m.label} at s=${fmt(m.s, 3)}` : `${m.label} at s=${fmt(m.s, 3)}`,
-        [line.at(m.s)], { mode: 'markers', text: [m.message],
+    if (line) {
+      marks.filter((m) => m.s !== null).forEach((m) => {
+        add(`${m.label} at s=${fmt(m.s, 3)}`, [line.at(m.s)], { mode: 'markers', text: [m.message],
           marker: { size: dims === 3 ? 7 : 13, symbol: m.kind === 'failure' ? 'x' : (dims === 3 ? 'diamond-open' : 'triangle-up'),
             color: m.kind === 'failure' ? FAIL_COLOR : WARN_COLOR },
           hovertemplate: '%{text}<extra></extra>' });
-    });
-    const legend = { orientation: 'h', y: -0.02, yanchor: 'top', font: { size: 11 } };
-    if (dims === 2) {
-      draw('plot-path', traces, baseLayout({
-        xaxis: axis('x [m]'), yaxis: axis('y [m]', { scaleanchor: 'x', scaleratio: 1 }),
-        legend: Object.assign({}, legend, { y: -0.1 }), margin: { l: 64, r: 16, t: 16, b: 40 },
-      }), `${robotName()}-tool-path`);
-      return;
-    }
-    if (!webglAvailable()) {
-      // No WebGL (some headless or remote browsers): top and side views instead of the 3D scene.
-      const flat = [];
-      traces.forEach((tr) => {
-        const base = Object.assign({}, tr, { type: 'scatter' });
-        delete base.z;
-        flat.push(Object.assign({}, base, { xaxis: 'x', yaxis: 'y' }));
-        flat.push(Object.assign({}, base, { y: tr.z, xaxis: 'x2', yaxis: 'y2', showlegend: false }));
       });
-      draw('plot-path', flat, baseLayout({
-        grid: { rows: 1, columns: 2, pattern: 'independent' },
-        xaxis: axis('x [m] (top view)'), yaxis: axis('y [m]', { scaleanchor: 'x' }),
-        xaxis2: axis('x [m] (side view)'), yaxis2: axis('z [m]', { scaleanchor: 'x2' }),
-        legend: Object.assign({}, legend, { y: -0.1 }), margin: { l: 64, r: 16, t: 16, b: 40 },
-      }), `${robotName()}-tool-path`);
-      return;
     }
-    // One scale on every axis (a cube around the motion), so the path is not distorted.
-    const all = [line.p0, line.p1].concat(tool ? tool.p : []);
-    const lo = [0, 1, 2].map((c) => Math.min(...all.map((p) => p[c])));
-    const hi = [0, 1, 2].map((c) => Math.max(...all.map((p) => p[c])));
-    const half = 0.6 * Math.max(1e-3, ...hi.map((v, c) => v - lo[c]));
-    const range = (c) => [(lo[c] + hi[c]) / 2 - half, (lo[c] + hi[c]) / 2 + half];
-    draw('plot-path', traces, baseLayout({
-      scene: { aspectmode: 'cube', xaxis: { title: { text: 'x [m]' }, range: range(0) },
-        yaxis: { title: { text: 'y [m]' }, range: range(1) },
-        zaxis: { title: { text: 'z [m]' }, range: range(2) },
-        camera: { eye: { x: 1.5, y: -1.5, z: 1.1 } } },
-      legend: legend, margin: { l: 0, r: 0, t: 0, b: 40 },
-    }), `${robotName()}-tool-path`);
+    // The arm: link frame origins in kinematic order (POST /fk with frames), at start and goal.
+    const startFk = line && line.startFk ? line.startFk : null;
+    const startArm = framePoints(startFk) || (tool && tool.arm[0]);
+    const startLabel = startFk ? startFk.configuration : tool && tool.config[0];
+    if (startArm) {
+      items.push(armItem(`arm at start${startLabel ? ` (${startLabel})` : ''}`, startArm,
+        { line: { color: COLORS[2], width: 7 }, marker: { size: 3, color: COLORS[2] } },
+        { role: 'arm', which: 'start', configuration: startLabel || null }));
+    }
+    const goalFk = line && line.goalFk ? line.goalFk : null;
+    const last = tool && tool.p.length ? tool.p.length - 1 : -1;
+    const goalArm = framePoints(goalFk) || (last >= 0 && !failure ? tool.arm[last] : null);
+    const goalLabel = goalFk ? goalFk.configuration : (last >= 0 ? tool.config[last] : null);
+    if (goalArm) {
+      items.push(armItem(`arm at goal${goalLabel ? ` (${goalLabel})` : ''}`, goalArm,
+        { line: { color: '#111', width: 7 }, marker: { size: 3, color: '#111' }, opacity: 0.75 },
+        { role: 'arm', which: 'goal', configuration: goalLabel || null }));
+    }
+    geometryItems(startFk ? startFk.frames : tool && tool.frames[0], 'collision geometry at start')
+      .forEach((it) => items.push(it));
+    (state.ikGhosts || []).forEach((g) => items.push(armItem(`IK ${g.label}`, g.pts,
+      { opacity: 0.35, line: { color: '#0891b2', width: 4, dash: 'dot' }, marker: { size: 2, color: '#0891b2' } },
+      { role: 'ik-ghost', configuration: g.label })));
+    obstacleItems().forEach((it) => items.push(it));
+    contactItems(failure, tool).forEach((it) => items.push(it));
+    state.lastToolMid = tool && tool.p.length ? tool.p[Math.floor(tool.p.length / 2)] : p0;
+    drawScene('plot-path', items, tool && tool.arm.every(Boolean) ? tool : null,
+      `${robotName()}-tool-path`);
   }
 
   let lastDeviation = null; // arguments of the last renderDeviation, to redraw on the log toggle
@@ -930,7 +1284,9 @@
       }
       const tolerance = Object.assign({}, DEFAULT_TOLERANCE, req.tolerance || {});
       const empty = problem ? `no trajectory: ${problem.code || 'error'}` : 'no deviation data';
-      renderPath(line, tool, marks, knotsTool);
+      renderPath(line, tool, marks, knotsTool, failure);
+      addConfigurations(line && line.startFk ? line.startFk.configuration : null,
+        line && line.goalFk ? line.goalFk.configuration : (tool && !failure ? tool.config[tool.config.length - 1] : null));
       renderDeviation(diag, tolerance, marks, empty);
       renderSigma(diag, tool, marks, empty);
       const knots = body && body.knots ? body.knots.map((k, i) => ({ t: k.time_from_start,
@@ -955,9 +1311,21 @@
       const res = await api('POST', path, req);
       const name = `${robotName()}-${isSpline ? `spline-${req.boundary}` : req.profile}`;
       setDownloads([{ label: 'Download JSON', filename: `${name}.json`, text: res.text }]);
-      const body = res.ok ? res.json : null;
+      let body = res.ok ? res.json : null;
       const problem = res.ok ? null : problemOf(res);
-      renderProblem(problem, `POST ${path}`);
+      let note = null;
+      if (problem && problem.code === 'collision' && req.environment) {
+        // The checked motion itself: the same request without the environment (public API).
+        const free = Object.assign({}, req);
+        delete free.environment;
+        const again = await api('POST', path, free);
+        if (again.ok) {
+          body = again.json;
+          note = { text: 'Drawn below: the same plan without the environment (the motion that was ' +
+            'checked), with the first contact marked on the tool path (Cartesian view).' };
+        }
+      }
+      renderProblem(problem, `POST ${path}`, note);
       setStatus(res.ok ? 'ok' : 'error', res.ok
         ? `POST ${path} → ${res.status} in ${Math.round(res.ms)} ms · ${body.points.length} points over ${fmt(body.diagnostics.duration)} s`
         : `POST ${path} → ${res.status} ${problem.code || ''} in ${Math.round(res.ms)} ms`);
@@ -967,6 +1335,7 @@
       if (req.limits) {
         limits.velocity = req.limits.velocity.map((v, j) => (Number.isFinite(v) ? v : limits.velocity[j]));
         limits.acceleration = req.limits.acceleration.map((v, j) => (Number.isFinite(v) ? v : limits.acceleration[j]));
+        if (Array.isArray(req.limits.jerk)) limits.jerk = req.limits.jerk;
       }
       let knots = null;
       if (body) {
@@ -980,13 +1349,132 @@
       }
       renderJoints(body, limits, knots,
         problem ? `No trajectory: ${problem.code || 'error'} — ${problem.detail || ''}` : null);
-      ['plot-path', 'plot-deviation', 'plot-sigma'].forEach((d) =>
-        placeholder(d, 'Plan a Cartesian line to see the tool path, deviation and σ'));
+      ['plot-deviation', 'plot-sigma'].forEach((d) =>
+        placeholder(d, 'Plan a Cartesian line to see the deviation and σ'));
+      if (body && req.robot) {
+        // The tool path and the arm of the joint-space motion (Cartesian view).
+        const tool = await toolPath(body, null);
+        tool.s = tool.s.map(() => null);
+        renderPath(null, tool, [], null, problem);
+        addConfigurations(tool.config[0], tool.config[tool.config.length - 1]);
+      } else {
+        placeholder('plot-path', 'No trajectory to draw');
+      }
     } catch (e) {
       pageError(e);
     } finally {
       done();
     }
+  }
+
+
+  // ---------------------------------------------------------------- work cell (environment)
+  /** The request's ``environment``: only once the user added an obstacle (feature detection). */
+  function environment() {
+    if (!state.obstacles.length) return undefined;
+    const env = {
+      obstacles: state.obstacles.map((o) => ({ name: o.name,
+        shape: o.type === 'box' ? { type: 'box', size: o.size } : { type: 'sphere', radius: o.radius },
+        pose: { position: o.position, orientation: [0, 0, 0, 1] } })),
+    };
+    const clearance = num('env-clearance');
+    if (clearance !== undefined && clearance > 0) env.clearance = clearance;
+    return env;
+  }
+  function withEnvironment(req) {
+    const env = environment();
+    if (env) req.environment = env;
+    return req;
+  }
+  function addObstacle(type) {
+    state.obstacleCount += 1;
+    const at = (state.lastToolMid || [0.4, 0, 0.3]).map(round6);
+    state.obstacles.push(type === 'box'
+      ? { name: `box${state.obstacleCount}`, type: 'box', position: at, size: [0.1, 0.1, 0.1] }
+      : { name: `sphere${state.obstacleCount}`, type: 'sphere', position: at, radius: 0.05 });
+    renderObstacles();
+  }
+  function renderObstacles() {
+    const table = $('env-table');
+    table.textContent = '';
+    if (state.obstacles.length) {
+      table.append(el('tr', {}, ['name', 'x', 'y', 'z', 'size [m]', ''].map((h) => el('th', {}, h))));
+    }
+    const numberCell = (o, get, set, id) => {
+      const input = numberInput(id, get());
+      input.addEventListener('change', () => { set(Number(input.value)); });
+      return el('td', {}, input);
+    };
+    state.obstacles.forEach((o, i) => {
+      const name = el('input', { type: 'text', value: o.name, id: `env-name-${i}`, size: 7 });
+      name.addEventListener('change', () => { o.name = name.value; });
+      const sizes = o.type === 'box'
+        ? el('td', {}, el('div', { class: 'triple' }, [0, 1, 2].map((c) => {
+          const input = numberInput(`env-size-${i}-${c}`, o.size[c], { title: ['x', 'y', 'z'][c] + ' edge' });
+          input.addEventListener('change', () => { o.size[c] = Number(input.value); });
+          return input;
+        })))
+        : numberCell(o, () => o.radius, (v) => { o.radius = v; }, `env-radius-${i}`);
+      table.append(el('tr', { 'data-obstacle': o.name }, el('td', {}, name),
+        [0, 1, 2].map((c) => numberCell(o, () => o.position[c], (v) => { o.position[c] = v; }, `env-pos-${i}-${c}`)),
+        sizes,
+        el('td', {}, el('button', { type: 'button', class: 'small', title: 'remove',
+          onclick: () => { state.obstacles.splice(i, 1); renderObstacles(); } }, '✕'))));
+    });
+    $('env-note').textContent = state.obstacles.length
+      ? `${state.obstacles.length} obstacle(s): every plan request carries this environment (a box is an axis-aligned box about its centre).`
+      : 'No obstacles: requests carry no environment.';
+  }
+
+  // ---------------------------------------------------------------- IK: every solution of a pose
+  async function ikAll() {
+    const pose = {
+      position: ['c-px', 'c-py', 'c-pz'].map((id) => num(id) || 0),
+      orientation: ['c-qx', 'c-qy', 'c-qz', 'c-qw'].map((id) => num(id) || 0),
+    };
+    const path = `/v1/robots/${encodeURIComponent(robotName())}/ik`;
+    const req = { pose: pose, seed: jointValues('c-start'), all: true };
+    showRequest('POST', path, req);
+    const box = $('c-ik-list');
+    box.hidden = false;
+    box.textContent = 'solving …';
+    const res = await api('POST', path, req);
+    box.textContent = '';
+    if (!res.ok) {
+      const problem = problemOf(res);
+      box.append(el('p', { class: 'muted' }, `${problem.code || res.status}: ${problem.detail || ''}`));
+      state.ikGhosts = [];
+      return;
+    }
+    const sols = res.json.solutions || [];
+    box.append(el('p', { class: 'muted', id: 'c-ik-count' },
+      `${sols.length} solution(s), ${res.json.solver} solver, nearest the start joints first:`));
+    sols.forEach((sol, k) => box.append(el('div', { class: 'ik-row', 'data-configuration': sol.configuration || '' },
+      el('code', { title: sol.positions.map((v) => fmt(v, 4)).join(', ') }, sol.configuration || `solution ${k + 1}`),
+      el('button', { type: 'button', class: 'small', id: `c-ik-use-${k}`,
+        onclick: () => useSolution(sol) }, 'use as goal joints'))));
+    const arms = await mapLimit(sols, FK_CONCURRENCY, (sol) => fk(sol.positions, true));
+    state.ikGhosts = arms.map((a, k) => ({ label: sols[k].configuration || `solution ${k + 1}`,
+      pts: framePoints(a) })).filter((g) => g.pts);
+    const start = await fk(jointValues('c-start'), true);
+    showView('cartesian');
+    renderPath({ p0: start.pose.position, p1: pose.position, at: () => pose.position,
+      startFk: start, goalFk: null }, null, [], null, null);
+  }
+  function useSolution(sol) {
+    sol.positions.forEach((v, j) => { $(`c-goal-${j}`).value = round6(v); });
+    $('c-goal-joints').checked = true;
+    syncCartesian();
+    updateConfigs();
+  }
+  /** Labels of the Cartesian form's start and goal joints (from /fk). */
+  async function updateConfigs() {
+    if (!state.robot || !(state.robot.configurations || []).length) {
+      $('c-configs').textContent = '';
+      return;
+    }
+    const [a, b] = await Promise.all([fk(jointValues('c-start')), fk(jointValues('c-goal'))]);
+    $('c-configs').textContent = `configuration: start ${a ? a.configuration : '?'} · goal joints ${b ? b.configuration : '?'}`;
   }
 
   // ---------------------------------------------------------------- compare
@@ -1181,6 +1669,461 @@
     ['c-qx', 'c-qy', 'c-qz', 'c-qw'].forEach((id, i) => { $(id).value = round6(pose.orientation[i]); });
   }
 
+  // ---------------------------------------------------------------- motion programs
+  const SEG_TYPES = ['ptp', 'lin', 'circ'];
+
+  /** A new editor segment: goal as a pose (lin, circ) or joints (ptp), from ``from``. */
+  function programSegment(type, from) {
+    const seg = { type: type, goalKind: type === 'ptp' ? 'positions' : 'pose',
+      positions: (from && from.positions) || state.robot.home.slice(),
+      pose: from && from.pose ? JSON.parse(JSON.stringify(from.pose)) : null,
+      blend: 0, speed: undefined, vscale: undefined, circKind: 'interim', via: null };
+    return seg;
+  }
+
+  function programStart() { return jointValues('p-start'); }
+
+  function buildProgramForm() {
+    const r = state.robot;
+    const table = $('p-start');
+    table.textContent = '';
+    const head = el('tr', {});
+    const row = el('tr', {});
+    r.joint_names.forEach((name, j) => {
+      head.append(el('th', { title: name }, name));
+      row.append(el('td', {}, numberInput(`p-start-${j}`, r.home[j])));
+    });
+    table.append(head, row);
+    state.program = [];
+    renderSegments();
+  }
+
+  function segInput(id, value, onchange, attrs) {
+    const input = numberInput(id, value, attrs);
+    input.addEventListener('change', () => onchange(input.value.trim() === '' ? undefined : Number(input.value)));
+    return input;
+  }
+
+  function renderSegments() {
+    const box = $('p-segments');
+    box.textContent = '';
+    const n = state.program.length;
+    state.program.forEach((seg, k) => {
+      const color = COLORS[k % COLORS.length];
+      const move = (d) => {
+        const j = k + d;
+        if (j < 0 || j >= n) return;
+        [state.program[k], state.program[j]] = [state.program[j], state.program[k]];
+        renderSegments();
+      };
+      const type = el('select', { id: `p-seg-${k}-type`, 'aria-label': 'segment type' },
+        SEG_TYPES.map((t) => el('option', { value: t, selected: t === seg.type }, t.toUpperCase())));
+      type.addEventListener('change', () => {
+        seg.type = type.value;
+        if (seg.type === 'circ') seg.goalKind = 'pose';
+        if (seg.type === 'circ' && !seg.via) seg.via = (seg.pose ? seg.pose.position : [0, 0, 0]).slice();
+        renderSegments();
+      });
+      const kind = el('select', { id: `p-seg-${k}-goal-kind`, 'aria-label': 'goal kind' },
+        [['pose', 'goal pose'], ['positions', 'goal joints']].filter(([v]) => seg.type !== 'circ' || v === 'pose')
+          .map(([v, label]) => el('option', { value: v, selected: v === seg.goalKind }, label)));
+      kind.addEventListener('change', async () => {
+        seg.goalKind = kind.value;
+        if (seg.goalKind === 'pose' && !seg.pose) {
+          const a = await fk(seg.positions);
+          if (a) seg.pose = a.pose;
+        }
+        renderSegments();
+      });
+      const blend = segInput(`p-seg-${k}-blend`, k < n - 1 ? seg.blend : '', (v) => { seg.blend = v || 0; },
+        { disabled: k === n - 1, title: 'blend radius [m] (not on the last segment)', style: 'width:64px' });
+      const head = el('div', { class: 'seg-head' }, el('strong', {}, String(k + 1)), type, kind,
+        el('label', { class: 'inline' }, 'blend r [m]', blend),
+        el('span', { class: 'spacer' }),
+        el('button', { type: 'button', title: 'move up', onclick: () => move(-1), disabled: k === 0 }, '↑'),
+        el('button', { type: 'button', title: 'move down', onclick: () => move(1), disabled: k === n - 1 }, '↓'),
+        el('button', { type: 'button', title: 'remove', id: `p-seg-${k}-remove`,
+          onclick: () => { state.program.splice(k, 1); renderSegments(); } }, '✕'));
+      const card = el('div', { class: 'segment', 'data-segment': String(k), style: `--seg:${color}` }, head);
+      if (seg.goalKind === 'pose' && seg.pose) {
+        const t = el('table', { class: 'grid pose' },
+          el('tr', {}, ['', 'x', 'y', 'z', 'w'].map((h) => el('th', {}, h))),
+          el('tr', {}, el('th', {}, 'position'), [0, 1, 2].map((c) => el('td', {},
+            segInput(`p-seg-${k}-p${c}`, seg.pose.position[c], (v) => { seg.pose.position[c] = v; }))), el('td', {})),
+          el('tr', {}, el('th', {}, 'quaternion'), [0, 1, 2, 3].map((c) => el('td', {},
+            segInput(`p-seg-${k}-q${c}`, seg.pose.orientation[c], (v) => { seg.pose.orientation[c] = v; })))));
+        card.append(t);
+      } else {
+        const t = el('table', { class: 'grid' },
+          el('tr', {}, state.robot.joint_names.map((name) => el('th', { title: name }, name))),
+          el('tr', {}, seg.positions.map((v, j) => el('td', {},
+            segInput(`p-seg-${k}-q-${j}`, v, (x) => { seg.positions[j] = x; })))));
+        card.append(t);
+      }
+      if (seg.type === 'circ') {
+        const ck = el('select', { id: `p-seg-${k}-circ-kind` },
+          ['interim', 'center'].map((v) => el('option', { value: v, selected: v === seg.circKind }, v)));
+        ck.addEventListener('change', () => { seg.circKind = ck.value; });
+        card.append(el('div', { class: 'row' }, ck, [0, 1, 2].map((c) =>
+          segInput(`p-seg-${k}-via${c}`, seg.via[c], (v) => { seg.via[c] = v; }, { style: 'width:80px' }))));
+      }
+      const extra = seg.type === 'ptp'
+        ? el('label', { class: 'inline' }, 'velocity scale', segInput(`p-seg-${k}-vscale`, seg.vscale,
+          (v) => { seg.vscale = v; }, { placeholder: '1', style: 'width:64px' }))
+        : el('label', { class: 'inline' }, 'max linear speed [m/s]', segInput(`p-seg-${k}-speed`, seg.speed,
+          (v) => { seg.speed = v; }, { placeholder: '0.25', style: 'width:64px' }));
+      card.append(el('div', { class: 'row' }, extra));
+      box.append(card);
+    });
+    if (!n) box.append(el('p', { class: 'muted' }, 'No segments: add one, or pick a preset.'));
+  }
+
+  async function addSegment(type) {
+    const last = state.program[state.program.length - 1];
+    let from = last ? { positions: last.positions.slice(), pose: last.pose } : null;
+    if (!from) {
+      const q = programStart();
+      const a = await fk(q);
+      from = { positions: q, pose: a ? a.pose : null };
+    }
+    if (!from.pose) {
+      const a = await fk(from.positions);
+      from.pose = a ? a.pose : { position: [0, 0, 0], orientation: [0, 0, 0, 1] };
+    }
+    const seg = programSegment(type, from);
+    if (type === 'circ') seg.via = from.pose.position.slice();
+    state.program.push(seg);
+    renderSegments();
+  }
+
+  function programRequest() {
+    const n = state.program.length;
+    const segments = state.program.map((seg, k) => {
+      const out = { type: seg.type,
+        goal: seg.goalKind === 'pose' ? { pose: seg.pose } : { positions: seg.positions } };
+      if (seg.type === 'ptp' && seg.vscale !== undefined) out.velocity_scale = seg.vscale;
+      if (seg.type !== 'ptp' && seg.speed !== undefined) out.max_linear_speed = seg.speed;
+      if (seg.type === 'circ') out[seg.circKind] = seg.via;
+      if (k < n - 1 && seg.blend) out.blend_radius = seg.blend;
+      return out;
+    });
+    const req = { robot: robotName(), start: { positions: programStart() }, segments: segments };
+    const period = num('p-period');
+    if (period !== undefined) req.sample_period = period;
+    if ($('p-partial').checked) req.allow_partial = true;
+    return withEnvironment(req);
+  }
+
+  const PANDA_HOME = [0, -PI / 4, 0, -3 * PI / 4, 0, PI / 2, PI / 4];
+  const PROGRAM_PRESETS = [
+    { id: 'ur5-weld', label: 'UR5: weld seam, 4 rounded corners (examples/ur5_weld_seam.py)', robot: 'ur5',
+      start: UR5_HOME, period: 0.004,
+      build: (p0, down) => {
+        const X = [0.1, 0, 0];
+        const Y = [0, 0.12, 0];
+        const add = (a, b, f) => a.map((v, i) => v + (f || 1) * b[i]);
+        const A = add(p0, X, -1);
+        const B = add(p0, X);
+        const C = add(B, Y);
+        const D = add(A, Y);
+        return [B, C, D, A, p0].map((p, k) => ({ type: 'lin', pose: { position: p, orientation: down },
+          speed: 0.1, blend: k < 4 ? 0.03 : 0 }));
+      } },
+    { id: 'panda-pick', label: 'Panda: pick and place (examples/panda_pick_place.py)', robot: 'panda',
+      start: PANDA_HOME, period: 0.005,
+      build: (p0, down) => {
+        const pick = [0.5, -0.2, 0.15];
+        const place = [0.45, 0.25, 0.2];
+        const up = (p) => [p[0], p[1], p[2] + 0.15];
+        const pose = (p) => ({ position: p, orientation: down });
+        return [
+          { type: 'ptp', goalKind: 'pose', pose: pose(up(pick)), vscale: 0.8 },
+          { type: 'lin', pose: pose(pick), speed: 0.2 },
+          { type: 'lin', pose: pose(up(pick)), speed: 0.3, blend: 0.05 },
+          { type: 'ptp', goalKind: 'pose', pose: pose(up(place)), blend: 0.05 },
+          { type: 'lin', pose: pose(place), speed: 0.2 },
+        ];
+      } },
+    { id: 'ur5-circ', label: 'UR5: LIN, half circle (CIRC through a point), LIN back', robot: 'ur5',
+      start: UR5_HOME, period: 0.005,
+      build: (p0, down) => {
+        const B = [p0[0] + 0.1, p0[1], p0[2]];
+        const C = [B[0], B[1] + 0.12, B[2]];
+        const via = [B[0] + 0.06, B[1] + 0.06, B[2]];
+        return [
+          { type: 'lin', pose: { position: B, orientation: down }, speed: 0.1, blend: 0.02 },
+          { type: 'circ', pose: { position: C, orientation: down }, speed: 0.1, blend: 0.02, via: via },
+          { type: 'lin', pose: { position: [p0[0], p0[1] + 0.12, p0[2]], orientation: down }, speed: 0.1 },
+        ];
+      } },
+  ];
+
+  async function applyProgramPreset(id) {
+    const p = PROGRAM_PRESETS.find((x) => x.id === id);
+    if (!p) return;
+    if (robotName() !== p.robot) await selectRobot(p.robot);
+    p.start.forEach((v, j) => { $(`p-start-${j}`).value = round6(v); });
+    const a = await fk(p.start);
+    state.program = p.build(a.pose.position, a.pose.orientation).map((s) => Object.assign(
+      programSegment(s.type, null), { goalKind: s.goalKind || 'pose', pose: s.pose, speed: s.speed,
+        vscale: s.vscale, blend: s.blend || 0, via: s.via || null }));
+    $('p-period').value = p.period;
+    renderSegments();
+  }
+
+  /** Returned points at segment and blend boundaries, and evenly spread ones: where FK is asked. */
+  function programIndices(body) {
+    const times = body.points.map((pt) => pt.time_from_start);
+    const want = new Set(subsample(times.length, 2 * MAX_FK_POINTS));
+    const bounds = [];
+    (body.segments || []).forEach((sg) => {
+      bounds.push(sg.start_time, sg.end_time);
+      if (sg.blend_out) bounds.push(sg.blend_out.start_time, sg.blend_out.end_time);
+    });
+    bounds.forEach((t) => {
+      let lo = 0;
+      let hi = times.length - 1;
+      while (hi - lo > 1) {
+        const mid = (lo + hi) >> 1;
+        if (times[mid] <= t) lo = mid; else hi = mid;
+      }
+      want.add(Math.abs(times[lo] - t) <= Math.abs(times[hi] - t) ? lo : hi);
+    });
+    return Array.from(want).sort((x, y) => x - y);
+  }
+
+  async function runProgram() {
+    if (!state.program.length) {
+      setStatus('error', 'The program has no segments: add one or pick a preset.');
+      return;
+    }
+    const req = programRequest();
+    const path = '/v1/trajectories/program';
+    showRequest('POST', path, req);
+    busy(`Running a program of ${req.segments.length} segments …`);
+    showView('program');
+    try {
+      const res = await api('POST', path, req);
+      const downloads = [{ label: 'Download JSON', filename: `${robotName()}-program.json`, text: res.text }];
+      let body = res.ok ? res.json : null;
+      const problem = res.ok ? null : problemOf(res);
+      let note = null;
+      if (problem && problem.segment !== undefined && !req.allow_partial) {
+        const partial = await api('POST', path, Object.assign({}, req, { allow_partial: true }));
+        if (partial.ok && partial.json.points && partial.json.points.length > 1) {
+          body = partial.json;
+          downloads.push({ label: 'Download prefix JSON', filename: `${robotName()}-program-prefix.json`,
+            text: partial.text });
+          note = { text: `Drawn below: the program up to segment ${problem.segment + 1} ` +
+            '(the same request with allow_partial).' };
+        }
+      }
+      setDownloads(downloads);
+      const diag = body ? body.diagnostics : null;
+      const failure = problem || (diag && diag.failure ? Object.assign({ title: 'Partial program' }, diag.failure) : null);
+      if (problem) renderProblem(problem, `POST ${path}`, note);
+      else if (failure) renderProblem(failure, 'allow_partial: the program up to the failure', { partial: true });
+      else renderProblem(null);
+      setStatus(res.ok ? 'ok' : 'error', res.ok
+        ? `POST ${path} → ${res.status} in ${Math.round(res.ms)} ms · ${body.points.length} points over ` +
+          `${fmt(diag.duration)} s · ${body.segments.length} segments`
+        : `POST ${path} → ${res.status} ${problem.code || ''} in ${Math.round(res.ms)} ms`);
+      renderSummary(body, diag ? [['stops', diag.stops]] : []);
+      renderWarnings(marksOf(diag, null).filter((m) => m.kind === 'warning'));
+      if (!body || !body.points || !body.points.length) {
+        placeholder('plot-program-path', `No program: ${problem ? problem.code : 'no points'}`);
+        placeholder('plot-program-speed', 'No program');
+        renderProgramTable([], problem);
+        renderJoints(null, robotLimits(), null, 'No program');
+        return;
+      }
+      const tool = await toolPath(body, null, programIndices(body));
+      const goals = await programGoals(req);
+      renderProgramPath(body, tool, goals, req, failure);
+      renderProgramSpeed(body, tool, failure);
+      renderProgramTable(body.segments || [], failure);
+      const knots = (body.segments || []).map((sg) => {
+        const t = sg.end_time;
+        const pt = body.points.find((x) => x.time_from_start >= t - 1e-12) || body.points[body.points.length - 1];
+        return { t: t, positions: pt.positions, label: `end of segment ${sg.index + 1}`, kind: 'segment ends' };
+      });
+      renderJoints(body, robotLimits(), knots, 'No program');
+      addConfigurations(tool.config[0], tool.config[tool.config.length - 1]);
+    } catch (e) {
+      pageError(e);
+    } finally {
+      done();
+    }
+  }
+
+  /** The tool position at each segment's goal (FK of joint goals), for blend spheres and markers. */
+  async function programGoals(req) {
+    return mapLimit(req.segments, FK_CONCURRENCY, async (seg) => {
+      if (seg.goal.pose) return seg.goal.pose.position;
+      const a = await fk(seg.goal.positions);
+      return a ? a.pose.position : null;
+    });
+  }
+
+  function segmentAt(segs, t) {
+    for (let k = 0; k < segs.length; k++) {
+      const sg = segs[k];
+      if (t >= sg.start_time - 1e-9 && t <= sg.end_time + 1e-9) return { k: k, blend: false };
+      if (sg.blend_out && t >= sg.blend_out.start_time - 1e-9 && t <= sg.blend_out.end_time + 1e-9) {
+        return { k: k, blend: true };
+      }
+    }
+    return null;
+  }
+
+  let lastProgramPath = null; // arguments of the last renderProgramPath, to redraw on the zoom toggle
+
+  function renderProgramPath(body, tool, goals, req, failure) {
+    lastProgramPath = [body, tool, goals, req, failure];
+    const segs = body.segments || [];
+    const dims = isPlanar() ? 2 : 3;
+    const items = [];
+    segs.forEach((sg, k) => {
+      const own = [];
+      const blend = [];
+      tool.t.forEach((t, i) => {
+        const at = segmentAt([sg], t);
+        if (at && !at.blend) own.push(tool.p[i]);
+        if (at && at.blend) blend.push(tool.p[i]);
+      });
+      const color = COLORS[sg.index % COLORS.length];
+      if (own.length) {
+        items.push({ name: `${sg.index + 1} ${sg.type.toUpperCase()}`, pts: own,
+          meta: { role: 'segment', index: sg.index },
+          style: { mode: 'lines', line: { color: color, width: dims === 3 ? 6 : 3 } } });
+      }
+      if (blend.length) {
+        items.push({ name: `blend ${sg.index + 1}→${sg.index + 2}`, pts: blend,
+          meta: { role: 'blend', index: sg.index },
+          style: { mode: 'lines', line: { color: '#111', width: dims === 3 ? 4 : 2, dash: 'dot' } } });
+      }
+    });
+    req.segments.forEach((seg, k) => {
+      const r = seg.blend_radius;
+      if (r && goals[k]) {
+        items.push({ name: `blend sphere ${k + 1} (r=${fmt(r, 3)} m)`, pts: sphereWire(goals[k], r),
+          meta: { role: 'blend-sphere', index: k, radius: r }, style: { mode: 'lines',
+            line: { color: '#6b7280', width: 2 }, opacity: 0.6, hoverinfo: 'name' } });
+        items.push({ name: `blend sphere ${k + 1} (solid)`, pts: sphereCloud(goals[k], r), mesh: true,
+          meta: { role: 'blend-sphere-solid' },
+          style: { alphahull: 0, opacity: 0.12, color: '#6b7280', showlegend: false, hoverinfo: 'skip' } });
+      }
+      if (seg.interim || seg.center) {
+        items.push({ name: `${k + 1} CIRC ${seg.interim ? 'interim' : 'center'}`, pts: [seg.interim || seg.center],
+          meta: { role: 'circ-point' }, style: { mode: 'markers',
+            marker: { size: dims === 3 ? 5 : 9, symbol: 'circle-open', color: COLORS[k % COLORS.length] } } });
+      }
+    });
+    const goalPts = goals.filter(Boolean);
+    items.push({ name: 'segment goals', pts: goalPts, meta: { role: 'goals' },
+      style: { mode: 'markers', marker: { size: dims === 3 ? 4 : 8, symbol: 'diamond', color: '#111' },
+        text: goals.map((g, k) => `goal of segment ${k + 1}`).filter((_, k) => goals[k]),
+        hovertemplate: '%{text}<extra></extra>' } });
+    if (tool.arm[0]) {
+      items.push(armItem(`arm at start${tool.config[0] ? ` (${tool.config[0]})` : ''}`, tool.arm[0],
+        { line: { color: COLORS[2], width: 7 }, marker: { size: 3, color: COLORS[2] } },
+        { role: 'arm', which: 'start', configuration: tool.config[0] }));
+    }
+    const last = tool.arm.length - 1;
+    if (last > 0 && tool.arm[last]) {
+      items.push(armItem(`arm at the end${tool.config[last] ? ` (${tool.config[last]})` : ''}`, tool.arm[last],
+        { line: { color: '#111', width: 7 }, marker: { size: 3, color: '#111' }, opacity: 0.75 },
+        { role: 'arm', which: 'goal', configuration: tool.config[last] }));
+    }
+    geometryItems(tool.frames[0], 'collision geometry at start').forEach((it) => items.push(it));
+    obstacleItems().forEach((it) => items.push(it));
+    contactItems(failure, tool).forEach((it) => items.push(it));
+    if (failure && failure.code !== 'collision' && tool.p.length) {
+      items.push({ name: `✖ ${failure.code || 'failed'} in segment ${(failure.segment || 0) + 1}`,
+        pts: [tool.p[tool.p.length - 1]], meta: { role: 'failure' },
+        style: { mode: 'markers', marker: { size: 9, symbol: 'x', color: FAIL_COLOR } } });
+    }
+    state.lastToolMid = tool.p.length ? tool.p[Math.floor(tool.p.length / 2)] : null;
+    drawScene('plot-program-path', items, tool.arm.every(Boolean) ? tool : null,
+      `${robotName()}-program-path`, $('p-focus').checked);
+  }
+
+  /** Joint speeds |q'| and the tool speed against time; segment and blend windows shaded. */
+  function renderProgramSpeed(body, tool, failure) {
+    const segs = body.segments || [];
+    const t = body.points.map((p) => p.time_from_start);
+    const traces = [];
+    body.joint_names.forEach((name, j) => {
+      traces.push({ type: 'scatter', mode: 'lines', name: name, x: t,
+        y: body.points.map((p) => Math.abs(p.velocities[j])), xaxis: 'x', yaxis: 'y',
+        line: { color: COLORS[j % COLORS.length], width: 1.5 }, meta: { role: 'joint-speed' },
+        hovertemplate: `${name}: %{y:.3g} rad/s<extra></extra>` });
+    });
+    const ts = [];
+    const vs = [];
+    for (let i = 1; i < tool.p.length; i++) {
+      const dt = tool.t[i] - tool.t[i - 1];
+      if (dt <= 0) continue;
+      const d = Math.hypot(...tool.p[i].map((v, c) => v - tool.p[i - 1][c]));
+      ts.push((tool.t[i] + tool.t[i - 1]) / 2);
+      vs.push(d / dt);
+    }
+    traces.push({ type: 'scatter', mode: 'lines', name: 'tool speed', x: ts, y: vs, xaxis: 'x', yaxis: 'y2',
+      line: { color: '#111', width: 2 }, meta: { role: 'tool-speed' },
+      hovertemplate: 'tool: %{y:.3g} m/s<extra>t=%{x:.3f} s</extra>' });
+    const shapes = [];
+    const annotations = [];
+    segs.forEach((sg) => {
+      const color = COLORS[sg.index % COLORS.length];
+      shapes.push({ type: 'rect', xref: 'x', yref: 'paper', x0: sg.start_time, x1: sg.end_time, y0: 0, y1: 1,
+        fillcolor: color, opacity: 0.1, line: { width: 0 }, layer: 'below', name: `segment ${sg.index + 1}` });
+      annotations.push({ x: (sg.start_time + sg.end_time) / 2, xref: 'x', y: 1, yref: 'paper',
+        yanchor: 'bottom', text: `${sg.index + 1} ${sg.type.toUpperCase()}`, showarrow: false,
+        font: { size: 11, color: color } });
+      if (sg.blend_out) {
+        shapes.push({ type: 'rect', xref: 'x', yref: 'paper', x0: sg.blend_out.start_time,
+          x1: sg.blend_out.end_time, y0: 0, y1: 1, fillcolor: '#111', opacity: 0.12, line: { width: 0 },
+          layer: 'below', name: `blend ${sg.index + 1}` });
+      }
+    });
+    if (failure && Number.isFinite(failure.time_from_start)) {
+      shapes.push({ type: 'line', xref: 'x', yref: 'paper', x0: failure.time_from_start,
+        x1: failure.time_from_start, y0: 0, y1: 1, line: { color: FAIL_COLOR, width: 2 }, name: 'failure' });
+    }
+    draw('plot-program-speed', traces, baseLayout({
+      grid: { rows: 2, columns: 1, pattern: 'coupled', roworder: 'top to bottom', ygap: 0.12 },
+      xaxis: axis('time [s] (segments shaded in their colour, blends grey)'),
+      yaxis: axis('|joint speed| [rad/s]', { rangemode: 'tozero' }),
+      yaxis2: axis('tool speed [m/s]', { rangemode: 'tozero' }),
+      shapes: shapes, annotations: annotations, hovermode: 'x unified',
+      margin: { l: 70, r: 16, t: 30, b: 44 }, legend: { font: { size: 11 } },
+    }), `${robotName()}-program-speed`);
+  }
+
+  function renderProgramTable(segs, failure) {
+    const table = $('program-table');
+    table.textContent = '';
+    table.append(el('thead', {}, el('tr', {}, ['#', 'type', 'start [s]', 'end [s]', 'blend window [s]',
+      'length [m]', 'max position dev. [m]', 'min σ'].map((c) => el('th', {}, c)))));
+    const tbody = el('tbody');
+    segs.forEach((sg) => {
+      const d = sg.diagnostics || {};
+      const color = COLORS[sg.index % COLORS.length];
+      tbody.append(el('tr', { 'data-segment': String(sg.index) },
+        el('td', {}, el('span', { class: 'swatch', style: `background:${color}` }), String(sg.index + 1)),
+        el('td', {}, sg.type + (d.skipped ? ' (skipped)' : '')),
+        el('td', {}, fmt(sg.start_time)), el('td', {}, fmt(sg.end_time)),
+        el('td', {}, sg.blend_out ? `${fmt(sg.blend_out.start_time)} – ${fmt(sg.blend_out.end_time)}` : '—'),
+        el('td', {}, fmt(d.length)), el('td', {}, fmt(d.max_position_deviation, 3)),
+        el('td', {}, fmt(d.min_singular_value))));
+    });
+    if (failure && failure.segment !== undefined) {
+      tbody.append(el('tr', { class: 'failed' }, el('td', {}, String(failure.segment + 1)),
+        el('td', { colspan: 7, class: 'problem-cell' }, `✖ ${failure.code}: ${failure.detail || ''}`)));
+    }
+    table.append(tbody);
+  }
+
   // ---------------------------------------------------------------- wiring
   function wire() {
     document.querySelectorAll('#form-tabs button').forEach((b) =>
@@ -1196,7 +2139,11 @@
     $('download-compare').addEventListener('click', () => {
       if (state.compareDownload) saveText(state.compareDownload.filename, state.compareDownload.text);
     });
-    $('robot').addEventListener('change', (e) => { $('c-preset').value = ''; selectRobot(e.target.value); });
+    $('robot').addEventListener('change', (e) => {
+      $('c-preset').value = '';
+      $('p-preset').value = '';
+      selectRobot(e.target.value);
+    });
     const presets = $('c-preset');
     PRESETS.forEach((p) => presets.append(el('option', { value: p.id }, p.label)));
     presets.addEventListener('change', (e) => applyPreset(e.target.value));
@@ -1205,9 +2152,15 @@
     document.querySelectorAll('input[name="j-timing"]').forEach((n) =>
       n.addEventListener('change', syncJointTiming));
     $('s-times').addEventListener('change', syncSplineTimes);
+    $('j-profile').addEventListener('change', syncJointTiming);
     $('j-zoom-limits').addEventListener('change', () => { if (lastJoints) renderJoints(...lastJoints); });
     $('cmp-log').addEventListener('change', () => { if (lastCompare) renderCompareplot(...lastCompare); });
     $('dev-log').addEventListener('change', () => { if (lastDeviation) renderDeviation(...lastDeviation); });
+    $('p-focus').addEventListener('change', () => { if (lastProgramPath) renderProgramPath(...lastProgramPath); });
+    $('show-geometry').addEventListener('change', () => {
+      if (lastPath) renderPath(...lastPath);
+      if (lastProgramPath) renderProgramPath(...lastProgramPath);
+    });
     $('s-add').addEventListener('click', () => {
       const rows = $('s-table').rows.length - 1;
       const last = jointValues(`s-wp-${rows - 1}`);
@@ -1222,11 +2175,24 @@
     $('c-pose-from-goal').addEventListener('click', async () => {
       const a = await fk(jointValues('c-goal'));
       if (a) setPose(a.pose);
+      state.ikGhosts = [];
+      $('c-ik-list').hidden = true;
     });
     $('form-cartesian').addEventListener('submit', (e) => { e.preventDefault(); runCartesian(); });
     $('form-joint').addEventListener('submit', (e) => { e.preventDefault(); runJoint('joint'); });
     $('form-spline').addEventListener('submit', (e) => { e.preventDefault(); runJoint('spline'); });
+    $('form-program').addEventListener('submit', (e) => { e.preventDefault(); runProgram(); });
+    ['ptp', 'lin', 'circ'].forEach((t) => $(`p-add-${t}`).addEventListener('click', () => addSegment(t)));
+    const pp = $('p-preset');
+    PROGRAM_PRESETS.forEach((x) => pp.append(el('option', { value: x.id }, x.label)));
+    pp.addEventListener('change', (e) => applyProgramPreset(e.target.value));
     $('c-compare').addEventListener('click', () => runCompare());
+    $('c-ik-all').addEventListener('click', () => ikAll());
+    $('c-joints').addEventListener('change', () => { state.ikGhosts = []; updateConfigs(); });
+    $('env-add-box').addEventListener('click', () => addObstacle('box'));
+    $('env-add-sphere').addEventListener('click', () => addObstacle('sphere'));
+    wireArmBars();
+    renderObstacles();
     syncCartesian();
   }
 
@@ -1237,6 +2203,8 @@
       placeholder(d, 'Plan a Cartesian line to see the tool path, deviation and σ'));
     placeholder('plot-joints', 'Plan a motion to see its joints');
     placeholder('plot-compare', 'Compare methods to see their deviation curves');
+    placeholder('plot-program-path', 'Run a program (Program tab) to see its tool path');
+    placeholder('plot-program-speed', 'Run a program to see where it slows down');
     try {
       await loadRobots();
     } finally {

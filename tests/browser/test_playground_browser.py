@@ -25,10 +25,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = ROOT / "artifacts"
+DOCS = ROOT / "docs"
 CHROMIUM = next(
     (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),
     None,
@@ -192,9 +194,33 @@ def _traces(driver: Any, plot: str) -> list[dict[str, Any]]:
         """const gd = document.getElementById(arguments[0]);
         return (gd.data || []).map((t) => ({name: t.name, type: t.type || 'scatter',
           n: (t.x || []).length, meta: t.meta || null, yaxis: t.yaxis || 'y',
-          y: (t.y || []).slice(0, 5)}));""",
+          x: Array.from(t.x || []).slice(0, 12), y: (t.y || []).slice(0, 5)}));""",
         plot,
     )
+
+
+def _arm(driver: Any, plot: str, which: str) -> dict[str, Any]:
+    """The arm trace drawn at ``which`` (start, goal, contact): name, point count, meta, x."""
+    found = driver.execute_script(
+        """const gd = document.getElementById(arguments[0]);
+        return (gd.data || []).filter((t) => t.meta && t.meta.role === 'arm'
+          && t.meta.which === arguments[1]).map((t) => ({name: t.name, n: t.x.length,
+          meta: t.meta, x: t.x}));""",
+        plot,
+        which,
+    )
+    assert found, f"no arm at {which} in {plot}"
+    return found[0]
+
+
+def _slide_arm(driver: Any, plot: str, k: int) -> None:
+    driver.execute_script(
+        """const s = document.querySelector(`.arm-bar[data-plot="${arguments[0]}"] .arm-slider`);
+        s.value = String(arguments[1]); s.dispatchEvent(new Event('input'));""",
+        plot,
+        k,
+    )
+    time.sleep(0.3)
 
 
 def _layout(driver: Any, plot: str) -> dict[str, Any]:
@@ -257,11 +283,14 @@ def _check_joint_plot(driver: Any, n_points: int, dof: int, knots: int | None = 
     traces = _traces(driver, "plot-joints")
     joints = [t for t in traces if (t["meta"] or {}).get("role") == "joint"]
     limits = [t for t in traces if (t["meta"] or {}).get("role") == "limit"]
-    assert len(joints) == 3 * dof  # position, velocity, acceleration per joint
+    assert len(joints) == 4 * dof  # position, velocity, acceleration, jerk per joint
     assert all(t["n"] == n_points for t in joints), [(t["name"], t["n"]) for t in joints]
-    assert len(limits) == 3 * dof  # one dashed pair (upper, lower) per joint and quantity
-    assert {t["yaxis"] for t in limits} == {"y", "y2", "y3"}
-    assert _rendered_lines(driver, "plot-joints") >= 6 * dof
+    jerk = [t for t in joints if t["meta"]["quantity"].startswith("jerk")]
+    assert len(jerk) == dof and {t["yaxis"] for t in jerk} == {"y4"}
+    # One dashed pair (upper, lower) per joint and quantity; jerk only where a limit is known.
+    assert len(limits) in (3 * dof, 4 * dof)
+    assert {"y", "y2", "y3"} <= {t["yaxis"] for t in limits}
+    assert _rendered_lines(driver, "plot-joints") >= 7 * dof
     if knots is not None:
         marked = [t for t in traces if (t["meta"] or {}).get("role") == "knots"]
         assert len(marked) == 1 and marked[0]["n"] == knots * dof
@@ -301,6 +330,28 @@ def test_ur5_sampled_line(server: str, page: Any) -> None:
     assert sigma[0]["n"] == len(diag["singular_value_profile"]["value"])
     assert sigma[0]["y"][0] == pytest.approx(diag["singular_value_profile"]["value"][0])
     _shot(page, "ur5-cartesian")
+
+    # The arm: one polyline through every link frame of POST /fk with frames, at start and goal.
+    assert "environment" not in request  # no obstacles, no environment
+    for which, q in (
+        ("start", request["start"]["positions"]),
+        ("goal", request["goal"]["positions"]),
+    ):
+        _, a = _post(server, "/v1/robots/ur5/fk", {"positions": q, "frames": True})
+        arm = _arm(page, "plot-path", which)
+        assert arm["n"] == len(a["frames"]) >= 7
+        assert arm["meta"]["configuration"] == a["configuration"]
+        assert arm["name"] == f"arm at {which} ({a['configuration']})"
+        assert arm["x"] == pytest.approx([f["position"][0] for f in a["frames"]], abs=1e-12)
+    assert page.find_element(By.ID, "summary-config-start").text.endswith(a["configuration"])
+    moving = [
+        t for t in _traces(page, "plot-path") if (t["meta"] or {}).get("role") == "arm-moving"
+    ]
+    assert len(moving) >= 1 and moving[0]["n"] == len(a["frames"])
+    _slide_arm(page, "plot-path", 0)
+    moved = [t for t in _traces(page, "plot-path") if (t["meta"] or {}).get("role") == "arm-moving"]
+    start_arm = _arm(page, "plot-path", "start")
+    assert moved[0]["x"] == pytest.approx(start_arm["x"], abs=1e-12)  # slider at t = 0: the start
 
     # Joints view: one point per returned point, the limit lines, every joint.
     _view(page, "joints")
@@ -402,3 +453,340 @@ def test_compare_has_a_row_per_method(server: str, page: Any) -> None:
         assert trace["n"] == len(result["diagnostics"]["deviation_profile"]["s"])
     _shot(page, "compare")
     assert _severe_console_errors(page) == []
+
+
+def test_joint_move_plots_jerk_as_differences_of_the_accelerations(server: str, page: Any) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='joint']").click()
+    Select(page.find_element(By.ID, "j-profile")).select_by_value("trapezoidal")
+    _click_and_wait(page, "j-plan")
+    path, request = _last_request(page)
+    assert path == "/v1/trajectories/joint" and "jerk" not in request["limits"]
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    _check_joint_plot(page, len(body["points"]), dof=6)
+    t = np.array([p["time_from_start"] for p in body["points"]])
+    acc = np.array([p["accelerations"] for p in body["points"]])
+    expected = np.gradient(acc, t, axis=0, edge_order=1)  # central differences inside
+    jerk = page.execute_script(
+        """const gd = document.getElementById('plot-joints');
+        return gd.data.filter((t) => t.meta && t.meta.quantity && t.meta.quantity.startsWith('jerk'))
+          .map((t) => Array.from(t.y));"""
+    )
+    assert len(jerk) == 6
+    got = np.array(jerk).T
+    # Interior points: (a[i+1] - a[i-1]) / (t[i+1] - t[i-1]), as np.gradient on a uniform grid.
+    np.testing.assert_allclose(got[1:-1], expected[1:-1], rtol=1e-9, atol=1e-9)
+    assert np.abs(got).max() > 10  # the trapezoid's acceleration steps show as jerk spikes
+    # The joint move also draws the tool path and the arm (Cartesian view).
+    assert _arm(page, "plot-path", "start")["n"] >= 7
+
+    # jerk_limited adds the jerk column, and only then limits.jerk is sent.
+    Select(page.find_element(By.ID, "j-profile")).select_by_value("jerk_limited")
+    assert page.find_element(By.ID, "j-jmax-0").is_displayed()
+    _click_and_wait(page, "j-plan")
+    _, request = _last_request(page)
+    assert request["profile"] == "jerk_limited"
+    assert len(request["limits"]["jerk"]) == 6 and all(v > 0 for v in request["limits"]["jerk"])
+    status, body = _post(server, "/v1/trajectories/joint", request)
+    if status == 200:  # a service with jerk_limited (issue 17): the jerk limits are drawn too
+        traces = _traces(page, "plot-joints")
+        jerk_limits = [
+            t
+            for t in traces
+            if (t["meta"] or {}).get("role") == "limit" and t["meta"]["quantity"].startswith("jerk")
+        ]
+        assert len(jerk_limits) == 6 and {t["yaxis"] for t in jerk_limits} == {"y4"}
+        assert "200" in page.find_element(By.ID, "status").text
+    else:  # not there yet: the page shows the service's own answer
+        assert status == 422 and page.find_element(By.ID, "problem-code").text == body["code"]
+    assert _severe_console_errors(page) == []
+
+
+def test_ik_lists_every_solution_and_one_becomes_the_goal(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    page.find_element(By.ID, "c-goal-pose").click()
+    page.find_element(By.ID, "c-pose-from-goal").click()
+    time.sleep(0.5)
+    page.find_element(By.ID, "c-ik-all").click()
+    WebDriverWait(page, 30).until(
+        lambda d: d.execute_script("return document.getElementById('c-ik-count') !== null")
+    )
+    path, request = _last_request(page)
+    assert path == "/v1/robots/ur5/ik" and request["all"] is True
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    labels = [s["configuration"] for s in body["solutions"]]
+    assert len(labels) >= 2
+    rows = page.find_elements(By.CSS_SELECTOR, "#c-ik-list .ik-row")
+    assert [r.get_attribute("data-configuration") for r in rows] == labels
+    WebDriverWait(page, 30).until(
+        lambda d: (
+            len([t for t in _traces(d, "plot-path") if (t["meta"] or {}).get("role") == "ik-ghost"])
+            == len(labels)
+        )
+    )
+    page.find_element(By.ID, "c-ik-use-1").click()
+    time.sleep(0.3)
+    goal = [float(page.find_element(By.ID, f"c-goal-{j}").get_attribute("value")) for j in range(6)]
+    assert goal == pytest.approx(body["solutions"][1]["positions"], abs=1e-6)
+    assert page.find_element(By.ID, "c-goal-joints").is_selected()
+
+
+@pytest.mark.parametrize(
+    ("preset", "robot", "blends"), [("ur5-weld", "ur5", 4), ("panda-pick", "panda", 2)]
+)
+def test_program_preset_runs_and_shows_its_segments(
+    server: str, page: Any, preset: str, robot: str, blends: int
+) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='program']").click()
+    Select(page.find_element(By.ID, "p-preset")).select_by_value(preset)
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    _click_and_wait(page, "p-plan")
+    path, request = _last_request(page)
+    assert path == "/v1/trajectories/program" and request["robot"] == robot
+    assert len(request["segments"]) == 5
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    segs = body["segments"]
+    assert "200" in page.find_element(By.ID, "status").text
+
+    # 3D: one trace per segment in its colour, a trace per blend, a sphere per blend radius.
+    traces = _traces(page, "plot-program-path")
+    role = lambda r: [t for t in traces if (t["meta"] or {}).get("role") == r]  # noqa: E731
+    assert [t["meta"]["index"] for t in role("segment")] == [s["index"] for s in segs]
+    assert len(role("blend")) == blends == sum("blend_out" in s for s in segs)
+    spheres = role("blend-sphere")
+    assert [t["meta"]["radius"] for t in spheres] == [
+        s["blend_radius"] for s in request["segments"] if s.get("blend_radius")
+    ]
+    _, a = _post(
+        server,
+        f"/v1/robots/{robot}/fk",
+        {"positions": request["start"]["positions"], "frames": True},
+    )
+    assert _arm(page, "plot-program-path", "start")["n"] == len(a["frames"])
+
+    # Speeds: |q'| of every joint at every returned point; segment and blend windows shaded.
+    speed = _traces(page, "plot-program-speed")
+    joint = [t for t in speed if (t["meta"] or {}).get("role") == "joint-speed"]
+    assert len(joint) == len(body["joint_names"])
+    assert all(t["n"] == len(body["points"]) for t in joint)
+    assert joint[0]["y"] == pytest.approx([abs(p["velocities"][0]) for p in body["points"][:5]])
+    shapes = page.execute_script(
+        """return document.getElementById('plot-program-speed').layout.shapes
+          .map((s) => ({name: s.name, x0: s.x0, x1: s.x1}));"""
+    )
+    windows = {s["name"]: s for s in shapes}
+    for seg in segs:
+        w = windows[f"segment {seg['index'] + 1}"]
+        assert (w["x0"], w["x1"]) == pytest.approx((seg["start_time"], seg["end_time"]))
+        if "blend_out" in seg:
+            b = windows[f"blend {seg['index'] + 1}"]
+            assert (b["x0"], b["x1"]) == pytest.approx(
+                (seg["blend_out"]["start_time"], seg["blend_out"]["end_time"])
+            )
+    rows = page.find_elements(By.CSS_SELECTOR, "#program-table tbody tr[data-segment]")
+    assert len(rows) == len(segs)
+    _shot(page, f"program-{preset}")
+    if preset == "ur5-weld" and os.environ.get("PLAYGROUND_DOCS_SCREENSHOT") == "1":
+        # The README's picture (docs/playground.png), only when asked for: the program view,
+        # page and form scrolled to the top.
+        page.execute_script(
+            "window.scrollTo(0, 0); document.querySelector('.forms').scrollTop = 0;"
+        )
+        time.sleep(0.3)
+        page.save_screenshot(str(DOCS / "playground.png"))
+    assert _severe_console_errors(page) == []
+
+
+def test_obstacles_are_drawn_and_sent_as_the_environment(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    page.find_element(By.ID, "env-add-sphere").click()
+    page.find_element(By.ID, "env-add-box").click()
+    radius = page.find_element(By.ID, "env-radius-0")
+    radius.clear()
+    radius.send_keys("0.07")
+    page.find_element(By.ID, "env-clearance").click()  # blur: the change event
+    _click_and_wait(page, "c-plan")
+    _, request = _last_request(page)
+    env = request["environment"]
+    assert [o["name"] for o in env["obstacles"]] == ["sphere1", "box2"]
+    assert env["obstacles"][0]["shape"] == {"type": "sphere", "radius": 0.07}
+    assert env["obstacles"][1]["shape"] == {"type": "box", "size": [0.1, 0.1, 0.1]}
+    drawn = [t for t in _traces(page, "plot-path") if (t["meta"] or {}).get("role") == "obstacle"]
+    assert [t["meta"]["name"] for t in drawn] == ["sphere1", "box2"]
+    # Removing every obstacle removes the environment from the requests again.
+    for _ in range(2):
+        page.find_element(By.CSS_SELECTOR, "#env-table tr[data-obstacle] button").click()
+    _click_and_wait(page, "c-plan")
+    assert "environment" not in _last_request(page)[1]
+
+
+def test_program_editor_reorders_and_a_bad_blend_is_named(server: str, page: Any) -> None:
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='program']").click()
+    Select(page.find_element(By.ID, "p-preset")).select_by_value("ur5-weld")
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    x0 = float(page.find_element(By.ID, "p-seg-0-p0").get_attribute("value"))
+    x1 = float(page.find_element(By.ID, "p-seg-1-p0").get_attribute("value"))
+    # Move segment 2 up, remove the last, add a PTP: the request follows the editor.
+    page.find_element(
+        By.CSS_SELECTOR, "#p-segments .segment[data-segment='1'] button[title='move up']"
+    ).click()
+    page.find_element(By.ID, "p-seg-4-remove").click()
+    page.find_element(By.ID, "p-add-ptp").click()
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    blend = page.find_element(By.ID, "p-seg-1-blend")
+    blend.clear()
+    blend.send_keys("0.5")
+    page.find_element(By.ID, "p-period").click()  # blur: the change event
+    _click_and_wait(page, "p-plan")
+    path, request = _last_request(page)
+    segs = request["segments"]
+    assert [s["type"] for s in segs] == ["lin", "lin", "lin", "lin", "ptp"]
+    assert segs[0]["goal"]["pose"]["position"][0] == pytest.approx(x1)
+    assert segs[1]["goal"]["pose"]["position"][0] == pytest.approx(x0)
+    assert segs[1]["blend_radius"] == 0.5
+    assert "positions" in segs[4]["goal"] and "blend_radius" not in segs[4]
+    status, problem = _post(server, path, request)
+    assert status == 422 and problem["code"] == "validation", problem
+    assert page.find_element(By.ID, "problem-code").text == "validation"
+    locs = [e.text for e in page.find_elements(By.CSS_SELECTOR, "#problem ul.errors code")]
+    assert "body.segments.1.blend_radius" in locs
+    assert _severe_console_errors(page) == []
+
+
+def _accepts_environment(server: str, path: str) -> bool:
+    """Whether the served OpenAPI request schema of ``path`` has ``environment`` (API.md round 2)."""
+    with urllib.request.urlopen(f"{server}/openapi.json", timeout=30) as r:
+        doc = json.loads(r.read())
+    ref = doc["paths"][path]["post"]["requestBody"]["content"]["application/json"]["schema"]
+    schema = doc["components"]["schemas"][ref["$ref"].rsplit("/", 1)[-1]] if "$ref" in ref else ref
+    return "environment" in schema.get("properties", {})
+
+
+def test_a_collision_is_marked_where_it_happens(server: str, page: Any) -> None:
+    if not _accepts_environment(server, "/v1/trajectories/cartesian"):
+        pytest.skip("this service has no environment on /v1/trajectories/cartesian yet (issue 15)")
+    _preset(page, "ur5-line")
+    _click_and_wait(page, "c-plan")  # the new obstacle goes to the middle of this tool path
+    page.find_element(By.ID, "env-add-sphere").click()
+    _click_and_wait(page, "c-plan")
+    path, request = _last_request(page)
+    status, problem = _post(server, path, request)
+    assert status == 422 and problem["code"] == "collision", problem
+    assert page.find_element(By.ID, "problem-code").text == "collision"
+    traces = _traces(page, "plot-path")
+    contact = [t for t in traces if (t["meta"] or {}).get("role") == "collision"]
+    assert len(contact) == 1
+    assert contact[0]["meta"]["time_from_start"] == pytest.approx(problem["time_from_start"])
+    assert contact[0]["meta"]["links"] == problem["links"]
+    assert _arm(page, "plot-path", "contact")["n"] >= 7
+    layout = _layout(page, "plot-deviation")
+    assert any(sh["x0"] == pytest.approx(problem["s"]) for sh in layout["shapes"])
+
+    # Lifted 1 m clear of the path: 200, and min_clearance in the summary.
+    z = page.find_element(By.ID, "env-pos-0-2")
+    lifted = float(z.get_attribute("value")) + 1.0
+    z.clear()
+    z.send_keys(str(lifted))
+    page.find_element(By.ID, "env-clearance").click()
+    _click_and_wait(page, "c-plan")
+    path, request = _last_request(page)
+    assert request["environment"]["obstacles"][0]["pose"]["position"][2] == pytest.approx(lifted)
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    clearance = body["diagnostics"]["min_clearance"]
+    assert clearance > 0
+    assert f"{clearance:.3g}"[:4] in page.find_element(By.ID, "summary").text
+
+
+_GEOMETRY = [
+    # API.md round 2: {"link", "shape", "origin": pose in the link frame}; injected below.
+    {
+        "link": "wrist_3_link",
+        "shape": {"type": "sphere", "radius": 0.05},
+        "origin": {"position": [0.0, 0.0, 0.02], "orientation": [0.0, 0.0, 0.0, 1.0]},
+    },
+    {
+        "link": "forearm_link",
+        "shape": {"type": "capsule", "radius": 0.04, "length": 0.3},
+        "origin": {
+            "position": [0.0, 0.0, 0.15],
+            "orientation": [0.0, 0.7071067811865476, 0.0, 0.7071067811865476],
+        },
+    },
+]
+
+
+def _quat_matrix(q: list[float]) -> np.ndarray:
+    x, y, z, w = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def test_collision_geometry_of_the_description_is_drawn_on_the_arm(server: str, page: Any) -> None:
+    """A description with ``collision_geometry`` (injected into the page's GET, as the contract
+    gives it) is drawn at the start: every wire point on its shape, placed by the /fk link frame."""
+    page.execute_script(
+        """const geo = arguments[0];
+        const orig = window.fetch;
+        window.fetch = async (url, init) => {
+          const res = await orig(url, init);
+          if (!String(url).endsWith('/v1/robots/ur5') || (init && init.method !== 'GET')) return res;
+          const body = await res.json();
+          body.collision_geometry = geo;
+          return new Response(JSON.stringify(body), {status: 200,
+            headers: {'content-type': 'application/json'}});
+        };""",
+        _GEOMETRY,
+    )
+    robot = Select(page.find_element(By.ID, "robot"))
+    robot.select_by_value("panda")
+    WebDriverWait(page, 15).until(lambda d: d.find_elements(By.ID, "c-start-6"))
+    robot.select_by_value("ur5")
+    WebDriverWait(page, 15).until(lambda d: not d.find_elements(By.ID, "c-start-6"))
+    WebDriverWait(page, 15).until(lambda d: d.find_element(By.ID, "geometry-toggle").is_displayed())
+    _click_and_wait(page, "c-plan")
+    _, request = _last_request(page)
+    _, a = _post(
+        server, "/v1/robots/ur5/fk", {"positions": request["start"]["positions"], "frames": True}
+    )
+    frames = {f["name"]: f for f in a["frames"]}
+    drawn = page.execute_script(
+        """const gd = document.getElementById('plot-path');
+        return gd.data.filter((t) => t.meta && t.meta.role === 'collision-geometry')
+          .map((t) => ({shapes: t.meta.shapes, x: Array.from(t.x), y: Array.from(t.y),
+            z: Array.from(t.z || t.y)}));"""
+    )
+    assert len(drawn) == 1 and drawn[0]["shapes"] == 2
+    # Split at the null after each shape's wire: sphere first, then capsule.
+    pts = [
+        None if x is None else np.array([x, y, z])
+        for x, y, z in zip(drawn[0]["x"], drawn[0]["y"], drawn[0]["z"], strict=True)
+    ]
+    placed = []
+    for g in _GEOMETRY:
+        f = frames[g["link"]]
+        R = _quat_matrix(f["orientation"])
+        centre = np.array(f["position"]) + R @ np.array(g["origin"]["position"])
+        axis = R @ _quat_matrix(g["origin"]["orientation"]) @ np.array([0.0, 0.0, 1.0])
+        placed.append((centre, axis))
+    points = np.array([p for p in pts if p is not None])
+    (c0, _), (c1, ax1) = placed
+    on_sphere = np.abs(np.linalg.norm(points - c0, axis=1) - 0.05) < 1e-9
+    # Distance of each point to the capsule's axis segment: 0.04 on its surface.
+    t = np.clip((points - c1) @ ax1, -0.15, 0.15)
+    on_capsule = np.abs(np.linalg.norm(points - (c1 + np.outer(t, ax1)), axis=1) - 0.04) < 1e-9
+    assert np.all(on_sphere | on_capsule)
+    assert on_sphere.sum() > 50 and on_capsule.sum() > 50

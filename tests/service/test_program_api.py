@@ -141,6 +141,7 @@ def _loc(body: dict) -> list:
         (lambda b: b["segments"][0].update(type="spline"), ["body", "segments", 0]),
         (lambda b: b["segments"][3]["goal"].update(positions=[0.0] * 5), ["body", "segments", 3, "goal", "positions"]),
         (lambda b: b["segments"][0].update(blend_radius=float("nan")), ["body", "segments", 0]),
+        (lambda b: b["segments"][2].update(method="bounded_deviation"), ["body", "segments", 2, "method"]),
     ],
 )  # fmt: skip
 def test_validation_errors_name_the_field(client, edit, loc):
@@ -155,13 +156,60 @@ def test_validation_errors_name_the_field(client, edit, loc):
     assert got[: len(loc)] == loc
 
 
-def test_configuration_label_without_labels_is_validation(client):
-    if hasattr(UR5, "configuration"):
-        pytest.skip("the robot has configuration labels now")
-    body = program()
-    body["segments"][3] = {"type": "ptp", "goal": {"pose": pose(0, 0, 0), "configuration": "up"}}
+PUMA = registry.get("puma560")
+PUMA_START = [0.0, 0.5, -2.5, 0.0, 0.5, 0.0]
+PUMA_GOAL = np.array([0.0, math.pi / 4, -math.pi, 0.0, 0.6, 0.0])
+
+
+def _puma_pose_program(label: str | None) -> dict:
+    T = PUMA.fk(PUMA_GOAL)
+    quat = Rotation.from_matrix(T[:3, :3]).as_quat().tolist()
+    goal: dict = {"pose": {"position": T[:3, 3].tolist(), "orientation": quat}}
+    if label is not None:
+        goal["configuration"] = label
+    return {"robot": "puma560", "start": {"positions": PUMA_START},
+            "segments": [{"type": "ptp", "goal": {"positions": [*PUMA_START[:4], 0.4, 0.0]}},
+                         {"type": "ptp", "goal": goal}]}  # fmt: skip
+
+
+def test_ptp_to_a_pose_takes_the_solution_with_the_label_nearest_the_joints(client):
+    T = PUMA.fk(PUMA_GOAL)
+    here = np.array([*PUMA_START[:4], 0.4, 0.0])  # the joints before the PTP
+    sols = PUMA.ik_all(T, here)
+    assert len(set(sols.configurations)) >= 3  # the pose has several labels: a real choice
+    for label in set(sols.configurations):
+        r = client.post(URL, json=_puma_pose_program(label))
+        assert r.status_code == 200, r.text
+        q = np.array(r.json()["points"][-1]["positions"])
+        assert PUMA.configuration(q) == label
+        assert np.abs(PUMA.fk(q) - T).max() < 1e-9
+        mine = sols.positions[[c == label for c in sols.configurations]]
+        best = mine[np.argmin(np.linalg.norm(mine - here, axis=1))]
+        assert np.abs(q - best).max() < 1e-12
+    # No label: the solution nearest the current joints of all.
+    r = client.post(URL, json=_puma_pose_program(None))
+    q = np.array(r.json()["points"][-1]["positions"])
+    best = sols.positions[np.argmin(np.linalg.norm(sols.positions - here, axis=1))]
+    assert np.abs(q - best).max() < 1e-12
+
+
+def test_configuration_label_the_pose_lacks_is_unreachable_naming_the_labels(client):
+    problem = _problem(
+        client.post(URL, json=_puma_pose_program("right-down-noflip")), "unreachable"
+    )
+    assert problem["segment"] == 1 and problem["s"] == 1.0
+    have = sorted(set(PUMA.ik_all(PUMA.fk(PUMA_GOAL), PUMA_GOAL).configurations))
+    assert problem["configurations"] == have and "right-down-noflip" not in have
+    for label in have:
+        assert label in problem["detail"]
+    # A label no robot of this family has, and a robot without labels: validation at the field.
+    problem = _problem(client.post(URL, json=_puma_pose_program("sideways")), "validation")
+    assert _loc(problem) == ["body", "segments", 1, "goal", "configuration"]
+    body = {"robot": "panda", "start": {"positions": registry.get("panda").home.tolist()},
+            "segments": [{"type": "ptp", "goal": {"pose": {"position": [0.3, 0.0, 0.5],
+                          "orientation": [1.0, 0.0, 0.0, 0.0]}, "configuration": "up"}}]}  # fmt: skip
     problem = _problem(client.post(URL, json=body), "validation")
-    assert _loc(problem) == ["body", "segments", 3, "goal", "configuration"]
+    assert _loc(problem) == ["body", "segments", 0, "goal", "configuration"]
 
 
 def test_unreachable_segment_is_422_with_segment_and_s_or_partial(client):
@@ -231,3 +279,50 @@ def test_time_budget_is_422_with_segment():
     tight = TestClient(create_app(Settings(time_budget_s=1e-4)))
     problem = _problem(tight.post(URL, json=program()), "time_budget_exceeded")
     assert isinstance(problem.get("segment"), int)
+
+
+def test_ptp_profiles_through_the_api(client):
+    panda = registry.get("panda")
+    q1 = (panda.home + 0.3).tolist()
+    body = {"robot": "panda", "start": {"positions": panda.home.tolist()},
+            "segments": [{"type": "ptp", "goal": {"positions": q1}, "profile": "jerk_limited"},
+                         {"type": "ptp", "goal": {"positions": panda.home.tolist()},
+                          "profile": "quintic", "velocity_scale": 0.5}],
+            "sample_period": 1e-3}  # fmt: skip
+    r = client.post(URL, json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    check_ros_trajectory(out, rest_to_rest=True)
+    t = np.array([p["time_from_start"] for p in out["points"]])
+    a = np.array([p["accelerations"] for p in out["points"]])
+    jerk = np.abs(np.diff(a, axis=0) / np.diff(t)[:, None])
+    first = t[1:] <= out["segments"][0]["end_time"]
+    assert np.all(jerk[first] <= panda.jerk_limits * (1 + 1e-6))
+    peak = np.array(out["diagnostics"]["peak_jerk"])
+    assert np.all(peak <= panda.jerk_limits * (1 + 1e-9)) and peak.max() > 1000.0
+    body["robot"], body["start"]["positions"] = "ur5", HOME
+    body["segments"] = [{"type": "ptp", "goal": {"positions": [*HOME[:5], 0.3]},
+                         "profile": "jerk_limited"}]  # fmt: skip
+    problem = _problem(client.post(URL, json=body), "validation")
+    assert _loc(problem) == ["body", "segments", 0, "profile"]
+
+
+def test_s_curve_lin_through_the_api(client):
+    body = {"robot": "ur5", "start": {"positions": HOME}, "sample_period": 1e-3,
+            "segments": [{"type": "lin", "goal": {"pose": pose(0.1, 0, 0)},
+                          "speed_profile": "s_curve", "max_linear_jerk": 5.0}]}  # fmt: skip
+    r = client.post(URL, json=body)
+    assert r.status_code == 200, r.text
+    pts = r.json()["points"]
+    t = np.array([p["time_from_start"] for p in pts])
+    keep = np.concatenate([[True], np.diff(t) > 5e-4])
+    q = np.array([p["positions"] for p in pts])[keep]
+    qd = np.array([p["velocities"] for p in pts])[keep]
+    v = np.einsum("nij,nj->ni", np.array([UR5.jacobian(x)[:3] for x in q]), qd)
+    a = np.diff(v, axis=0) / np.diff(t[keep])[:, None]
+    tk = t[keep]
+    jerk = np.linalg.norm(np.diff(a, axis=0), axis=1) / (0.5 * (tk[2:] - tk[:-2]))
+    assert 4.5 < jerk.max() <= 5.0 * (1 + 1e-3)
+    body["segments"][0]["max_linear_jerk"] = -1.0
+    problem = _problem(client.post(URL, json=body), "validation")
+    assert problem["errors"][0]["loc"][-1] == "max_linear_jerk"

@@ -4,7 +4,7 @@ least squares as a QP (``resolved_rate_dls``), simulated tick by tick.
 The nominal duration T is split into whole ticks of ``dt = T / ceil(T / control_period)`` (so
 ``dt <= control_period`` and the nominal end falls on a tick). At each tick:
 
-1. The setpoint: pose on the line at ``s(tau)`` and twist ``line.twist(s'(tau))``, where ``s(t)`` is
+1. The setpoint: pose on the path at ``s(tau)`` and twist ``path.derivative(s) s'(tau)``, where ``s(t)`` is
    the nominal profile every Cartesian method starts from (quintic for a fixed duration, else the
    speed-limited trapezoid of ``CartesianTask.speeds()``) without joint-rate caps (meeting the joint
    limits is the controller's business) and ``tau`` is the path clock (below).
@@ -62,6 +62,7 @@ from core.cartesian.rate.qp import (
     solve_dls_qp,
 )
 from core.cartesian.task import CartesianTask
+from core.cartesian.timing import nominal_profile
 from core.cartesian.validate import validated_line
 from core.errors import (
     InputError,
@@ -74,8 +75,8 @@ from core.errors import (
 )
 from core.geometry import so3
 from core.kinematics import task_rows
-from core.path.line import StraightLine
-from core.timing import TIMING_LAWS, Profile, TimingSpec
+from core.path import Path
+from core.timing import Profile
 
 FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
@@ -97,6 +98,10 @@ TIME_SCALE_MARGIN = 0.95
 """The path clock slows so the feedforward rates use at most this share of the velocity limits,
 leaving the rest to the feedback term."""
 _CHECK_EVERY = 256
+_SETPOINT_BLOCK = 256
+"""Setpoint poses evaluated per vectorized ``Path.poses`` call."""
+_ON_TICK = 1e-9
+"""A clock time within this share of a tick of it is that tick (rounding of the summed steps)."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
 
@@ -139,37 +144,48 @@ class RateRun:
     failure: PlanningError | None
 
 
-def nominal_timing(task: CartesianTask, line: StraightLine) -> Profile:
-    """s(t): quintic for ``task.duration``, else the speed-limited profile of ``task.speeds()``."""
-    if task.duration is not None:
-        return TIMING_LAWS["quintic"](TimingSpec(duration=task.duration))
-    linear, angular = task.speeds()
-    spec = TimingSpec(line.length, line.angle, max_linear_speed=linear, max_angular_speed=angular)
-    return TIMING_LAWS["speed_limited"](spec)
+def nominal_timing(task: CartesianTask, line: Path) -> Profile:
+    """s(t): quintic for ``task.duration``, else the speed-limited profile of ``task.speeds()``
+    (the S-curve for ``speed_profile="s_curve"``: ``core.cartesian.timing.nominal_profile``)."""
+    return nominal_profile(task, line)
 
 
 class _Setpoint:
-    """Pose, twist and s on the line at path-clock time tau (s(t) tabulated per tick)."""
+    """Pose, unit twist and s on the path at path-clock time tau (s(t) tabulated per tick).
 
-    def __init__(self, line: StraightLine, timing: Profile, dt: float, n: int):
+    At a tick of the grid (the clock runs at full rate) the pose and d(pose)/ds come from a table
+    evaluated ``_SETPOINT_BLOCK`` ticks at a time (one vectorized ``Path.poses`` call per block);
+    between ticks (a time-scaled clock) from ``Path.pose`` at that s. Both are exact."""
+
+    def __init__(self, line: Path, timing: Profile, dt: float, n: int):
         grid = np.arange(n + 2) * dt
         self.s, self.sd, self.dt, self.end = timing(grid), timing(grid, 1), dt, n * dt
-        self.line, theta = line, line.angle
-        K = so3.skew(line.rotvec / theta) if theta > 0.0 else np.zeros((3, 3))
-        # R0 exp(s theta [k]) = R0 + sin(s theta) R0 [k] + (1 - cos(s theta)) R0 [k]^2.
-        self.theta, self.R0K, self.R0K2 = theta, line.R0 @ K, line.R0 @ K @ K
-        self.omega = line.R0 @ line.rotvec
+        self.line = line
+        self._block, self._poses, self._rates = -1, np.zeros((0, 4, 4)), np.zeros((0, 6))
 
-    def __call__(self, tau: float) -> tuple[float, float, np.ndarray, np.ndarray]:
-        """``(s, s' [1/s], p_d (3,), R_d (3, 3))`` at clock time ``tau`` [s] (held after the end)."""
+    def _at_tick(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        block, row = divmod(k, _SETPOINT_BLOCK)
+        if block != self._block:
+            s = self.s[block * _SETPOINT_BLOCK : (block + 1) * _SETPOINT_BLOCK]
+            self._block, self._poses = block, self.line.poses(s)
+            self._rates = self.line.derivative(s)
+        return self._poses[row], self._rates[row]
+
+    def __call__(self, tau: float) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray]:
+        """``(s, s' [1/s], p_d (3,), R_d (3, 3), d(pose)/ds (6,))`` at clock time ``tau`` [s]
+        (held after the end)."""
         x = min(tau, self.end) / self.dt
+        k = round(x)
+        if abs(x - k) <= _ON_TICK:
+            k = min(k, len(self.s) - 1)
+            T_d, rate = self._at_tick(k)
+            return float(self.s[k]), float(self.sd[k]), T_d[:3, 3], T_d[:3, :3], rate
         i = min(int(x), len(self.s) - 2)
         w = x - i
         s = float((1.0 - w) * self.s[i] + w * self.s[i + 1])
         sd = float((1.0 - w) * self.sd[i] + w * self.sd[i + 1])
-        a = s * self.theta
-        R_d = self.line.R0 + math.sin(a) * self.R0K + (1.0 - math.cos(a)) * self.R0K2
-        return s, sd, self.line.p0 + s * self.line.delta_p, R_d
+        T_d = self.line.pose(s)
+        return s, sd, T_d[:3, 3], T_d[:3, :3], self.line.derivative(np.array([s]))[0]
 
 
 def simulate(task: CartesianTask, method: str) -> RateRun:
@@ -205,7 +221,6 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
     goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
     qp = DlsQpSolver(robot.dof) if dls and solver == "osqp" else None
     floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
-    unit_twist = np.concatenate([line.delta_p, setpoint.omega])[rows]  # per unit s' [1/s]
 
     n, dof = total + 1, robot.dof
     positions, rates, track = np.zeros((n, dof)), np.zeros((n, dof)), np.zeros((n, 2))
@@ -217,7 +232,7 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
     for k in range(n):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
-        s, sd, p_d, R_d = setpoint(tau)
+        s, sd, p_d, R_d, unit_twist = setpoint(tau)
         T_now, J_now = kinematics(q)
         e_p = p_d - T_now[:3, 3]
         if pose_task:
@@ -235,7 +250,7 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
                 failure = _stuck(robot, line, q, sigma[k - 1], first_limit, at_end, s, dt * k)
             break
         J = J_now[rows]
-        twist = sd * unit_twist
+        twist = sd * unit_twist[rows]  # unit_twist: per unit s' [1/s]
         feedback = gain * np.concatenate([e_p, e_o])[rows]
         U, S, Vt = np.linalg.svd(J, full_matrices=False)
         sigma[k] = S[-1]

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.cartesian.knot_nlp import _clearance_matrix
-from core.clearance import Clearance, clearance_ok, linearized_clearance_rows
+from core.clearance import Clearance, clearance_ok, linearized_clearance_rows, stacked_rows
 from robots import registry
 from robots.collision import CollisionChecker, Obstacle, robot_setup
 
@@ -62,11 +61,11 @@ def test_rows_are_the_distance_gradients() -> None:
 def test_rows_land_on_their_check_in_the_nlp() -> None:
     index = np.array([0, 2])
     G = np.array([[1.0, 2.0], [3.0, 4.0]])
-    W, lb = _clearance_matrix((index, G, np.array([0.5, 0.6])), m=3, dof=2)
+    W, lb = stacked_rows((index, G, np.array([0.5, 0.6])), m=3, dof=2)
     qc = np.array([[1.0, 1.0], [5.0, 5.0], [-1.0, 2.0]])  # (M, dof), vec column-major of (dof, M)
     np.testing.assert_allclose(W @ qc.ravel(), [3.0, 5.0], atol=1e-12)
     np.testing.assert_allclose(lb, [0.5, 0.6])
-    assert _clearance_matrix(None, 3, 2)[0] is None
+    assert stacked_rows(None, 3, 2)[0] is None
 
 
 def test_clearance_ok_uses_the_thresholds() -> None:

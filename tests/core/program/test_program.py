@@ -14,10 +14,11 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from core.errors import BranchFlip, InputError, JointLimit, Singularity, Unreachable
 from core.path.arc import Arc
-from core.program.build import build
+from core.program.build import _keep_label, build
 from core.program.plan import plan_program
 from core.program.segments import ProgramTask, Segment
 from core.program.validate import layout
+from core.program.walk import Walk
 from robots import registry
 
 UR5 = registry.get("ur5")
@@ -305,3 +306,34 @@ def test_circ_circ_and_ptp_ptp_blends_are_smooth_and_inside_their_spheres():
         seg = segs[k]
         arc = Arc(start, seg.goal_pose, center=seg.center, interim=seg.interim)
         assert np.abs(np.linalg.norm(p - arc.center, axis=1) - arc.radius).max() < 1e-6
+
+
+def test_a_walk_that_changes_configuration_label_is_cut_there_as_branch_flip():
+    other = UR5.ik_all(T0, HOME)
+    flip = other.positions[[c != UR5.configuration(HOME) for c in other.configurations]][0]
+    q = np.array([HOME, HOME + 1e-3, flip, HOME])
+    w = _keep_label(UR5, Walk(np.array([0.0, 0.1, 0.2, 0.3]), q, None, 1.0))
+    assert isinstance(w.failure, BranchFlip) and w.failure.s == 0.2
+    assert len(w.s) == 2 and np.array_equal(w.q, q[:2])
+    assert UR5.configuration(flip) in w.failure.detail
+    same = Walk(np.array([0.0, 0.1]), q[:2], None, 1.0)
+    assert _keep_label(UR5, same) is same
+
+
+def test_lin_and_circ_keep_the_configuration_label_of_their_start():
+    result = plan_program(ProgramTask(UR5, HOME, mixed()))
+    labels = set(UR5.configurations(result.trajectory.positions))
+    assert labels == {UR5.configuration(HOME)}
+
+
+def test_peak_jerk_is_the_analytic_jerk_checked_by_finite_differences():
+    result = plan_program(ProgramTask(UR5, HOME, mixed(), sample_period=2e-4))
+    tr = result.trajectory
+    fd = np.abs(np.diff(tr.accelerations, axis=0) / np.diff(tr.times)[:, None]).max(axis=0)
+    peak = tr.peak_jerk
+    assert np.all(np.isfinite(peak))
+    # Finite differences average the jerk over an interval: never above the analytic peak, and
+    # at this sampling close to it.
+    assert np.all(fd <= peak * (1 + 1e-3) + 1e-9)
+    assert np.all(fd >= 0.8 * peak)
+    assert np.all(tr.peak_velocity >= np.abs(tr.velocities).max(axis=0))
