@@ -230,7 +230,9 @@ class _KnotSearch:
             return None, "Maximum_WallTime_Exceeded"
         s = knot_parameters(count, self.taylor.s)
         start, rows = KnotPath(best)(s), None
+        rounds = 0
         for _ in range(AVOID_ROUNDS if task.clearance is not None else 1):
+            rounds += 1
             if task.clearance is not None:  # SQP round: clearance linearized about ``start``
                 q_checks = KnotPath(Knots(s, start))(check_points(s, self.checks))
                 rows = linearized_clearance_rows(task.clearance, q_checks)
@@ -260,6 +262,7 @@ class _KnotSearch:
                 "iterations": sol.iterations,
                 "solve_time_s": sol.solve_time,
                 "accepted": ok,
+                **({"clearance_rounds": rounds} if task.clearance is not None else {}),
             }
         )
         if sol.status in TIME_STATUSES and task.deadline.expired():
