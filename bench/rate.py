@@ -11,11 +11,18 @@ The 1,000-tick run: a 1 s line at ``dt`` = 1 ms from the robot's home (15 cm and
 core call (``plan``: controller, output sampling, dense checks) and the HTTP round trip. Pink: its
 closed loop (``solve_ik`` with a ``FrameTask`` whose target is our run's pose one tick ahead, then
 ``Configuration.integrate_inplace``). numpy: 1,000 DLS steps with pinocchio kinematics.
+
+``python -m bench.rate [--repeats N]``: the run side by side with the Pink + DAQP loop alone,
+interleaved (ours, plan, Pink in turn, N rounds), medians of process CPU time and of wall time, and
+their ratios: on a shared, loaded machine CPU time is the steadier figure.
 """
 
 from __future__ import annotations
 
+import argparse
 import itertools
+import statistics
+import time
 import warnings
 
 import numpy as np
@@ -184,3 +191,50 @@ def pink_loops(task: CartesianTask, run) -> list[Row]:
         fn = make(solver)
         out.append(Row(n, fn, unavailable="" if fn else f"{solver} not installed", peer=True))
     return out
+
+
+def side_by_side(name: str, repeats: int) -> str:
+    """One line: medians of CPU and wall time [ms] of our run, our plan and the Pink + DAQP loop
+    over ``repeats`` interleaved rounds, and the ratios to Pink."""
+    task = run_task(name)
+    run = simulate(task, "resolved_rate_dls")
+    pink = next(r for r in pink_loops(task, run) if r.name.endswith("daqp"))
+    if pink.fn is None:
+        return f"{name}: pink + daqp unavailable ({pink.unavailable})"
+    fns = {
+        "simulate": lambda: simulate(task, "resolved_rate_dls"),
+        "plan": lambda: plan(task, "resolved_rate_dls"),
+        "pink": pink.fn,
+    }
+    cpu: dict[str, list[float]] = {k: [] for k in fns}
+    wall: dict[str, list[float]] = {k: [] for k in fns}
+    for fn in fns.values():
+        fn()  # warm-up
+    for _ in range(repeats):
+        for key, fn in fns.items():
+            w, c = time.perf_counter(), time.process_time()
+            fn()
+            cpu[key].append(time.process_time() - c)
+            wall[key].append(time.perf_counter() - w)
+    c = {k: statistics.median(v) * 1e3 for k, v in cpu.items()}
+    w = {k: statistics.median(v) * 1e3 for k, v in wall.items()}
+    return (
+        f"{name}: CPU ms simulate {c['simulate']:.1f}, plan {c['plan']:.1f}, pink+daqp "
+        f"{c['pink']:.1f}: simulate/pink {c['simulate'] / c['pink']:.2f}x, plan/pink "
+        f"{c['plan'] / c['pink']:.2f}x | wall ms {w['simulate']:.1f}, {w['plan']:.1f}, "
+        f"{w['pink']:.1f}: {w['simulate'] / w['pink']:.2f}x, {w['plan'] / w['pink']:.2f}x"
+    )
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="P5 run: ours beside the Pink + DAQP loop")
+    parser.add_argument("--repeats", type=int, default=9, help="interleaved rounds (default 9)")
+    args = parser.parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name in ("ur5", "panda"):
+            print(side_by_side(name, args.repeats))
+
+
+if __name__ == "__main__":
+    main()

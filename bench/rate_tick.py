@@ -33,13 +33,13 @@ from core.cartesian.rate.control import simulate
 from core.cartesian.rate.qp import (
     OSQP_SETTINGS,
     REDUNDANCY_DAMPING,
-    DlsQpSolver,
     RateLimits,
     build_dls_qp,
     damping,
     rate_bounds,
     solve_dls_qp,
 )
+from core.cartesian.rate.tick_qp import DlsQpSolver
 from core.cartesian.task import CartesianTask
 from core.kinematics import task_rows
 

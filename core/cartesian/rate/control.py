@@ -45,35 +45,40 @@ where the damping is active: a singularity or the workspace boundary) or ``NoCon
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
-    SINGULAR_REGION,
-    DlsQpSolver,
     RateLimits,
     build_dls_qp,
     check_solver,
     damping,
-    rate_bounds,
     solve_dls_qp,
 )
+from core.cartesian.rate.setpoint import LineSetpoint, setpoint_for
+from core.cartesian.rate.steps import (
+    TIME_SCALE_MARGIN,
+    feedforward_ratio,
+    first_limit,
+    pinv_step,
+    pose_error,
+    singular_values,
+    stuck,
+    svd,
+    time_scale,
+)
+from core.cartesian.rate.tick_qp import DlsQpSolver, ExtraRows
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import nominal_profile
 from core.cartesian.validate import validated_line
 from core.errors import (
     InputError,
-    JointLimit,
-    JointRateLimit,
-    NoConvergence,
     PlanningError,
-    Singularity,
     TooLarge,
 )
-from core.geometry import so3
 from core.kinematics import task_rows
 from core.path import Path
 from core.timing import Profile
@@ -82,8 +87,6 @@ FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
 MAX_GAIN_PER_TICK = 0.5
 """Upper bound on ``K dt``."""
-PINV_SINGULAR_THRESHOLD = 1e-3
-"""``resolved_rate`` refuses to step below this smallest singular value (J^+ would amplify 1000x)."""
 GOAL_FRACTION = 0.1
 """The run ends once the pose error is within this share of the position and orientation tolerance."""
 SETTLE_TIME = 1.0
@@ -94,14 +97,9 @@ MAX_TICKS = 1_000_000
 """Most control ticks one run may simulate (bounds memory and time; ``TooLarge`` beyond)."""
 ACTIVE_TOLERANCE = 1e-6
 """[rad/s] A rate this close to its bound counts as an active limit."""
-TIME_SCALE_MARGIN = 0.95
-"""The path clock slows so the feedforward rates use at most this share of the velocity limits,
-leaving the rest to the feedback term."""
 _CHECK_EVERY = 256
-_SETPOINT_BLOCK = 256
-"""Setpoint poses evaluated per vectorized ``Path.poses`` call."""
-_ON_TICK = 1e-9
-"""A clock time within this share of a tick of it is that tick (rounding of the summed steps)."""
+_FIRST_BLOCK, _BLOCK = 16, 1024
+"""Setpoints tabulated per block of ticks: the first after a slowed tick, and the most (doubling)."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
 
@@ -150,49 +148,21 @@ def nominal_timing(task: CartesianTask, line: Path) -> Profile:
     return nominal_profile(task, line)
 
 
-class _Setpoint:
-    """Pose, unit twist and s on the path at path-clock time tau (s(t) tabulated per tick).
-
-    At a tick of the grid (the clock runs at full rate) the pose and d(pose)/ds come from a table
-    evaluated ``_SETPOINT_BLOCK`` ticks at a time (one vectorized ``Path.poses`` call per block);
-    between ticks (a time-scaled clock) from ``Path.pose`` at that s. Both are exact."""
-
-    def __init__(self, line: Path, timing: Profile, dt: float, n: int):
-        grid = np.arange(n + 2) * dt
-        self.s, self.sd, self.dt, self.end = timing(grid), timing(grid, 1), dt, n * dt
-        self.line = line
-        self._block, self._poses, self._rates = -1, np.zeros((0, 4, 4)), np.zeros((0, 6))
-
-    def _at_tick(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        block, row = divmod(k, _SETPOINT_BLOCK)
-        if block != self._block:
-            s = self.s[block * _SETPOINT_BLOCK : (block + 1) * _SETPOINT_BLOCK]
-            self._block, self._poses = block, self.line.poses(s)
-            self._rates = self.line.derivative(s)
-        return self._poses[row], self._rates[row]
-
-    def __call__(self, tau: float) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray]:
-        """``(s, s' [1/s], p_d (3,), R_d (3, 3), d(pose)/ds (6,))`` at clock time ``tau`` [s]
-        (held after the end)."""
-        x = min(tau, self.end) / self.dt
-        k = round(x)
-        if abs(x - k) <= _ON_TICK:
-            k = min(k, len(self.s) - 1)
-            T_d, rate = self._at_tick(k)
-            return float(self.s[k]), float(self.sd[k]), T_d[:3, 3], T_d[:3, :3], rate
-        i = min(int(x), len(self.s) - 2)
-        w = x - i
-        s = float((1.0 - w) * self.s[i] + w * self.s[i + 1])
-        sd = float((1.0 - w) * self.sd[i] + w * self.sd[i + 1])
-        T_d = self.line.pose(s)
-        return s, sd, T_d[:3, 3], T_d[:3, :3], self.line.derivative(np.array([s]))[0]
-
-
-def simulate(task: CartesianTask, method: str) -> RateRun:
+def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
     """Run the controller of ``method`` along the task's line (see the module docstring).
 
-    Planning failures end the run and are returned in ``failure``; malformed input
-    (``InputError``), a run over ``MAX_TICKS`` (``TooLarge``) and the deadline raise.
+    ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.qp.ExtraRows``:
+    obstacle avoidance); OSQP only, and not with ``resolved_rate``. Planning failures end the run
+    and are returned in ``failure``; malformed input (``InputError``), a run over ``MAX_TICKS``
+    (``TooLarge``) and the deadline raise.
+
+    The loop keeps per-tick work to what each tick needs (issue 19, P5; every output equal to the
+    previous loop's within 1e-12, iterations exactly): arrays preallocated for the run and written
+    in place (rate bounds, rates, next positions); setpoints tabulated per block of ticks while
+    the clock runs at rate 1; pose error, damping and path clock in Python floats; singular values
+    by LAPACK's gesdd without numpy's wrapper; the path-clock rate skipped where a norm bound, then
+    a Cholesky solve, keep it at 1; one OSQP workspace updated in place; active-bound flags and the
+    first pinned joint from the stored arrays after the loop.
     """
     if method not in RATE_METHODS:
         raise InputError(f"method must be one of {', '.join(RATE_METHODS)}", field=("method",))
@@ -202,8 +172,11 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         raise InputError("control_period must be a finite number > 0 s", field=("control_period",))
     limits = RateLimits.of(robot)
     lo_q, hi_q, vmax = limits.position[:, 0], limits.position[:, 1], limits.velocity
-    q = np.array(task.q_start, dtype=float)
     solver = check_solver(task.solver) if dls else ""
+    if extra_rows is not None and not (dls and solver == "osqp"):
+        raise InputError(
+            "extra inequality rows need resolved_rate_dls with osqp", field=("method",)
+        )
     line = validated_line(task)
     timing = nominal_timing(task, line)
     nominal = max(1, math.ceil(timing.duration / period - 1e-9))
@@ -214,32 +187,60 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
             f"{total} control ticks exceed the limit of {MAX_TICKS}; raise control_period",
             field=("control_period",),
         )
-    setpoint = _Setpoint(line, timing, dt, nominal)
+    setpoint = setpoint_for(line, timing, dt, nominal)
     rows, pose_task = task_rows(robot.task_space), robot.task_space == "pose"
     p_rows = rows[rows < 3]
+    all_rows, all_p = len(rows) == 6, len(p_rows) == 3
     gain = min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)
     goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
-    qp = DlsQpSolver(robot.dof) if dls and solver == "osqp" else None
+    capacity = 0 if extra_rows is None else int(extra_rows.capacity)
+    qp = DlsQpSolver(robot.dof, extra_rows=capacity) if dls and solver == "osqp" else None
     floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
+    # |qd_ff|_inf <= |twist| max_i S_i / (S_i^2 + lam^2) / min v_max (with room for rounding);
+    # the largest unit twist along the path (one constant on a line; sampled densely on an arc,
+    # 1 % added for the samples between)
+    biggest = setpoint.max_unit[rows]
+    margin = 1.0 + 1e-6 if isinstance(setpoint, LineSetpoint) else 1.01
+    twist_bound = math.sqrt(float(biggest @ biggest)) * margin / float(vmax.min())
+    row_list, unit, unit_twist, units = rows.tolist(), None, biggest, biggest.tolist()
 
     n, dof = total + 1, robot.dof
-    positions, rates, track = np.zeros((n, dof)), np.zeros((n, dof)), np.zeros((n, 2))
-    s_log, sigma, lam, scale = np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n)
-    its, times, active = np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n, dtype=bool)
-    fallbacks, failure, first_limit, tau = 0, None, None, 0.0
-    e_o = np.zeros(3)
+    positions, rates = np.zeros((n, dof)), np.zeros((n, dof))
+    bounds = np.zeros((n if dls else 0, 2, dof))  # (lower, upper) rate bounds of each step
+    track_p, track_o = np.zeros(n), np.zeros(n)
+    s_log, sigma, lam_log, scale = np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n)
+    its, times = np.zeros(n, dtype=np.int64), np.zeros(n)
+    position_box, low_v = np.stack([lo_q, hi_q]), -vmax
+    fallbacks, failure, tau, no_rows = 0, None, 0.0, ()
+    positions[0] = task.q_start
+    q = positions[0]
+    nominal_clock, block_at, block_end, block_size = True, 0, 0, _FIRST_BLOCK
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
+    clock = time.perf_counter
     for k in range(n):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
-        s, sd, p_d, R_d, unit_twist = setpoint(tau)
+        if nominal_clock:  # setpoints tabulated a block of ticks at a time (while kappa = 1)
+            if k >= block_end:
+                count = min(block_size, n - k)
+                block_s, block_sd, block_p, block_R, block_u = setpoint.block(tau, count)
+                block_at, block_end, block_size = k, k + count, min(2 * block_size, _BLOCK)
+            j = k - block_at
+            s, sd, p_d, R_d, u = block_s[j], block_sd[j], block_p[j], block_R[j], block_u[j]
+        else:
+            s, sd, p_d, R_d, u = setpoint(tau)
+            R_d = np.array(R_d).reshape(3, 3)
+        if u is not unit:  # per unit s' [1/s]; a line's is one object, set once
+            unit, unit_twist = u, u[rows]
+            units = unit_twist.tolist()
         T_now, J_now = kinematics(q)
-        e_p = p_d - T_now[:3, 3]
-        if pose_task:
-            e_o = so3.log(R_d @ T_now[:3, :3].T)
-        positions[k], s_log[k] = q, s
-        err_p, err_o = math.sqrt(e_p[p_rows] @ e_p[p_rows]), math.sqrt(e_o @ e_o)
-        track[k] = err_p, err_o
+        # (ndarray.dot: the same BLAS call as @ without the ufunc machinery, about 1 us less)
+        M = R_d.dot(T_now[:3, :3].T).tolist() if pose_task else None
+        e = pose_error(T_now[:3, 3].tolist(), p_d, M)
+        s_log[k] = s
+        err_p = math.sqrt(e[0] * e[0] + e[1] * e[1] + (e[2] * e[2] if all_p else 0.0))
+        err_o = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+        track_p[k], track_o[k] = err_p, err_o
         at_end = tau >= setpoint.end - 0.5 * dt
         if at_end and err_p <= GOAL_FRACTION * goal_p and err_o <= GOAL_FRACTION * goal_o:
             n = k + 1
@@ -247,116 +248,94 @@ def simulate(task: CartesianTask, method: str) -> RateRun:
         if k == total:
             n = k + 1
             if not (at_end and err_p <= goal_p and err_o <= goal_o):
-                failure = _stuck(robot, line, q, sigma[k - 1], first_limit, at_end, s, dt * k)
+                first = first_limit(positions[1:n], lo_q, hi_q, s_log) if dls else None
+                failure = stuck(robot, line, q, sigma[k - 1], first, at_end, s, dt * k)
             break
-        J = J_now[rows]
-        twist = sd * unit_twist[rows]  # unit_twist: per unit s' [1/s]
-        feedback = gain * np.concatenate([e_p, e_o])[rows]
-        U, S, Vt = np.linalg.svd(J, full_matrices=False)
-        sigma[k] = S[-1]
+        J = J_now if all_rows else J_now[rows]
+        # V = kappa s' unit_twist + K e, element by element (as the array expression would; zip
+        # without strict=True, which costs ~0.8 us a call: the lengths are equal by construction).
+        e_task = e if all_rows else [e[i] for i in row_list]
+        nxt = positions[k + 1]
         if dls:
-            lam[k] = damping(sigma[k], floor=floor)
-            scale[k] = _time_scale(U, S, Vt, twist, lam[k], vmax)
-            lower, upper = rate_bounds(q, limits, dt)
-            V = scale[k] * twist + feedback
-            step = (
-                qp.step(J, V, lam[k], lower, upper)
-                if qp is not None
-                else solve_dls_qp(build_dls_qp(J, V, lam[k], q, limits, dt), solver)
-            )
-            qd, its[k], times[k] = step.x, step.iterations, step.solve_time
-            fallbacks += step.fallback
-            active[k] = ((qd <= lower + ACTIVE_TOLERANCE) | (qd >= upper - ACTIVE_TOLERANCE)).any()
-            q_next = np.minimum(np.maximum(q + qd * dt, lo_q), hi_q)
-            pinned = (q_next <= lo_q) | (q_next >= hi_q)
-            if first_limit is None and pinned.any():
-                first_limit = (s, int(np.argmax(pinned)))
+            sigma[k] = sigma_min = float(singular_values(J)[-1])
+            lam_log[k] = lam = damping(sigma_min, floor=floor)
+            gains = 1.0 / sigma_min if sigma_min > 0.0 else math.inf
+            if lam > 0.0:
+                gains = min(gains, 0.5 / lam)
+            kappa = 1.0
+            if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:  # the norm bound may bind
+                twist = sd * unit_twist
+                # Cholesky first: the SVD route (exactly as before) only where it may bind.
+                if feedforward_ratio(J, twist, lam, vmax) > TIME_SCALE_MARGIN * (1.0 - 1e-9):
+                    scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
+            B = bounds[k]  # rate_bounds(q, limits, dt), written in place
+            np.subtract(position_box, q, out=B)
+            np.divide(B, dt, out=B)
+            np.maximum(B, low_v, out=B)
+            np.minimum(B, vmax, out=B)
+            V = np.array([kappa * (sd * u) + gain * x for u, x in zip(units, e_task, strict=False)])
+            start = clock()
+            if qp is not None:
+                its[k], fell_back, _ = qp.solve(
+                    J,
+                    V,
+                    lam,
+                    B[0],
+                    B[1],
+                    rates[k],
+                    no_rows if extra_rows is None else extra_rows(q),
+                )
+                times[k] = clock() - start
+            else:
+                step = solve_dls_qp(build_dls_qp(J, V, lam, q, limits, dt), solver)
+                rates[k], its[k], times[k], fell_back = (
+                    step.x,
+                    step.iterations,
+                    step.solve_time,
+                    step.fallback,
+                )
+            fallbacks += fell_back
+            np.multiply(rates[k], dt, out=nxt)
+            np.add(q, nxt, out=nxt)
+            np.maximum(nxt, lo_q, out=nxt)
+            np.minimum(nxt, hi_q, out=nxt)
         else:
-            failure, qd = _pinv_step(robot, U, S, Vt, twist + feedback, s, q, dt, limits)
+            kappa = 1.0
+            U, S, Vt = svd(J)
+            sigma[k] = S[-1]
+            V = np.array([sd * u + gain * x for u, x in zip(units, e_task, strict=False)])
+            failure, qd = pinv_step(robot, U, S, Vt, V, s, q, dt, limits)
             if failure is not None:
                 n = k + 1
                 break
-            q_next = q + qd * dt
-        rates[k], q, tau = qd, q_next, tau + scale[k] * dt
+            rates[k] = qd
+            np.multiply(qd, dt, out=nxt)
+            np.add(q, nxt, out=nxt)
+        q, tau = nxt, tau + kappa * dt
+        if kappa != 1.0:  # the tabulated setpoints no longer apply
+            nominal_clock, block_end, block_size = False, 0, _FIRST_BLOCK
+        elif not nominal_clock:
+            nominal_clock = True
     steps = n - 1
+    active = np.zeros(steps, dtype=bool)
+    if dls:
+        R, B = rates[:steps], bounds[:steps]
+        near = (R <= B[:, 0] + ACTIVE_TOLERANCE) | (R >= B[:, 1] - ACTIVE_TOLERANCE)
+        active = near.any(axis=1)
     return RateRun(
         dt=dt,
         nominal_ticks=nominal,
         positions=positions[:n],
-        rates=np.vstack([rates[:steps], np.zeros((1, dof))]),
+        rates=rates[:n],
         s=s_log[:n],
         sigma=sigma[:steps],
-        damping=lam[:steps],
+        damping=lam_log[:steps],
         time_scale=scale[:steps],
-        active=active[:steps],
+        active=active,
         iterations=its[:steps],
         solve_time=times[:steps],
         fallbacks=int(fallbacks),
-        tracking_position=track[:n, 0],
-        tracking_orientation=track[:n, 1],
+        tracking_position=track_p[:n],
+        tracking_orientation=track_o[:n],
         failure=failure,
-    )
-
-
-def _time_scale(U, S, Vt, twist: np.ndarray, lam: float, vmax: np.ndarray) -> float:
-    """Path-clock rate in (0, 1] that keeps the DLS rates ``V diag(S / (S^2 + lam^2)) U^T twist``
-    of the feedforward twist within ``TIME_SCALE_MARGIN`` of the velocity limits (1 when they
-    already are); ``U, S, Vt`` is the thin SVD of the task Jacobian."""
-    qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
-    ratio = float(np.max(np.abs(qd) / vmax))
-    return 1.0 if ratio <= TIME_SCALE_MARGIN else TIME_SCALE_MARGIN / ratio
-
-
-def _pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
-    """The ``resolved_rate`` step ``J^+ V`` (``J^-1 V`` when square) from the thin SVD of ``J``:
-    ``(failure, qd)`` with exactly one of them set."""
-    sigma, vmax = float(S[-1]), limits.velocity
-    if sigma < PINV_SINGULAR_THRESHOLD:
-        detail = f"the Jacobian is singular (smallest singular value {sigma:.2e}) at s={s:.4f}"
-        return Singularity(detail, s=s, extra={"min_singular_value": sigma}), None
-    qd = Vt.T @ ((U.T @ V) / S)
-    fast = np.flatnonzero(over_speed(qd, vmax))
-    if fast.size:
-        j = int(fast[np.argmax(np.abs(qd[fast]) / vmax[fast])])
-        detail = (
-            f"joint {robot.joint_names[j]} would need {abs(qd[j]):.3g} rad/s (limit "
-            f"{vmax[j]:.3g}) at s={s:.4f}; the pseudo-inverse does not slow down (the DLS does)"
-        )
-        return JointRateLimit(detail, joint=j, s=s, extra={"rate": float(abs(qd[j]))}), None
-    q_next = q + qd * dt
-    out = np.flatnonzero(outside(q_next, limits.position))
-    if out.size:
-        j = int(out[0])
-        detail = f"joint {robot.joint_names[j]} reaches its limit at s={s:.4f}"
-        return JointLimit(detail, joint=j, s=s), None
-    return None, qd
-
-
-def _stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningError:
-    """Why a DLS run ended short of the goal: a pinned joint, the velocity limits (the path clock
-    did not reach the end), damping, or plain non-convergence."""
-    s_reached = float(line.deviation(robot.fk(q)[None]).s[0])
-    if first_limit is not None:
-        s_hit, j = first_limit
-        lo, hi = robot.position_limits[j]
-        if q[j] <= lo or q[j] >= hi:
-            detail = (
-                f"joint {robot.joint_names[j]} is held at its position limit (reached at "
-                f"s={s_hit:.4f}); the tool cannot follow the line past s={s_reached:.4f}"
-            )
-            return JointLimit(detail, joint=j, s=s_hit)
-    if not at_end:
-        detail = (
-            f"the joint velocity limits slowed the line so much that after {elapsed:.3f} s it was "
-            f"only at s={s:.4f}; ask for a longer duration or lower tool speeds"
-        )
-        return JointRateLimit(detail, s=s)
-    if sigma < SINGULAR_REGION:
-        detail = (
-            f"the arm is stuck at a singular configuration (smallest singular value {sigma:.2e}) "
-            f"at s={s_reached:.4f}: a singularity or the edge of the workspace"
-        )
-        return Singularity(detail, s=s_reached, extra={"min_singular_value": float(sigma)})
-    return NoConvergence(
-        f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
     )

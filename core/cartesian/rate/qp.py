@@ -12,7 +12,7 @@ In the standard form ``1/2 x^T P x + c^T x`` of OSQP and qpsolvers, ``P = J^T J 
 minimizer is the pseudo-inverse step ``J^+ V`` (for ``J`` of full column rank).
 
 ``build_dls_qp`` returns a ``qpsolvers.Problem`` to inspect or hand to any installed solver with
-``solve_dls_qp``. ``DlsQpSolver`` is the per-tick path: one OSQP workspace per request whose ``P``,
+``solve_dls_qp``. ``core.cartesian.rate.tick_qp.DlsQpSolver`` is the per-tick path: one OSQP workspace per request whose ``P``,
 ``c`` and bounds are updated in place each tick and warm-started (qpsolvers sets up a new OSQP
 workspace on every call).
 
@@ -218,90 +218,6 @@ def solve_dls_qp(problem: qpsolvers.Problem, solver: str = "osqp", **options: ob
         status=str(getattr(info, "status", "solved" if solution.found else "not solved")),
         violation=float(np.abs(solution.x - x).max()),
     )
-
-
-class DlsQpSolver:
-    """The per-tick QP on one OSQP workspace: set up once, updated in place, warm-started.
-
-    ``P`` is a dense upper triangle in CSC (a fixed sparsity pattern) and ``A = I``, so the
-    constraints are the rate bounds; ``step`` writes new values of ``P``, ``c``, ``l`` and ``u``.
-    The update and solve go straight to OSQP's extension object when it has the 1.x methods (the
-    Python wrapper's bookkeeping costs about 20 us a tick), else through the public API.
-
-    Args:
-        dof: Number of joints.
-        settings: OSQP settings overriding ``OSQP_SETTINGS``.
-    """
-
-    def __init__(self, dof: int, **settings: object) -> None:
-        import osqp  # the backend of the fast path (qpsolvers' "osqp" imports it too)
-
-        self.dof = int(dof)
-        cols, rows = np.tril_indices(self.dof)  # column by column, rows 0..j: CSC order of triu
-        self._rows, self._cols = rows, cols
-        indptr = np.concatenate([[0], np.cumsum(np.arange(1, self.dof + 1))])
-        P = sp.csc_matrix((np.where(rows == cols, 1.0, 0.0), rows, indptr), shape=(dof, dof))
-        self._osqp = osqp.OSQP()
-        self._osqp.setup(
-            P,
-            np.zeros(self.dof),
-            sp.identity(self.dof, format="csc"),
-            -np.ones(self.dof),
-            np.ones(self.dof),
-            **{**OSQP_SETTINGS, **settings},
-        )
-        ext = getattr(self._osqp, "_solver", None)
-        needed = ("update_data_vec", "update_data_mat", "solve", "solution", "info")
-        self._ext = ext if all(hasattr(ext, name) for name in needed) else None
-        self._solved = int(osqp.SolverStatus.OSQP_SOLVED)
-        self._warm = bool({**OSQP_SETTINGS, **settings}["warm_starting"])
-
-    def step(
-        self, J: np.ndarray, V: np.ndarray, lam: float, lower: np.ndarray, upper: np.ndarray
-    ) -> QpStep:
-        """Rates minimizing ``||J qd - V||^2 + lam^2 ||qd||^2`` within ``lower <= qd <= upper``.
-
-        Args:
-            J: Task Jacobian ``(m, dof)``.
-            V: Task twist ``(m,)``.
-            lam: Damping >= 0.
-            lower: ``(dof,)`` lower rate bounds [rad/s] (from ``rate_bounds``), <= ``upper``.
-            upper: ``(dof,)`` upper rate bounds [rad/s].
-
-        When OSQP stops short of its tolerance (``max_iter``, or solved inaccurately: ADMM is slow
-        on the ill-conditioned QP of a redundant arm with a joint against a limit), the tick is
-        solved exactly by ``bounded_least_squares`` and OSQP is warm-started from that answer.
-        """
-        start = time.perf_counter()
-        H = J.T @ J
-        H.flat[:: self.dof + 1] += lam * lam
-        c = -(J.T @ V)
-        if self._ext is not None:
-            ext = self._ext
-            ext.update_data_vec(q=c, l=lower, u=upper)
-            ext.update_data_mat(P_x=H[self._rows, self._cols], P_i=None, A_x=None, A_i=None)
-            ext.solve()
-            x, info = ext.solution.x, ext.info
-        else:
-            self._osqp.update(Px=H[self._rows, self._cols], q=c, l=lower, u=upper)
-            result = self._osqp.solve(raise_error=False)
-            x, info = result.x, result.info
-        status, iterations = str(info.status), int(info.iter)
-        fallback = int(info.status_val) != self._solved or not np.all(np.isfinite(x))
-        if fallback:
-            x = bounded_least_squares(J, V, lam, lower, upper)
-            if self._warm:  # (OSQP's warm_start turns warm starting on)
-                self._osqp.warm_start(x=x, y=-(H @ x + c))  # the exact primal-dual pair (A = I)
-        clipped = np.minimum(np.maximum(x, lower), upper)
-        return QpStep(
-            x=clipped,
-            found=True,
-            iterations=iterations,
-            solve_time=time.perf_counter() - start,
-            status=status,
-            violation=float(np.abs(x - clipped).max()),
-            fallback=fallback,
-        )
 
 
 def bounded_least_squares(

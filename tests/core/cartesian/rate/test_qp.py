@@ -15,7 +15,6 @@ from core.cartesian.rate.qp import (
     MAX_DAMPING,
     REDUNDANCY_DAMPING,
     SINGULAR_REGION,
-    DlsQpSolver,
     RateLimits,
     bounded_least_squares,
     build_dls_qp,
@@ -24,6 +23,7 @@ from core.cartesian.rate.qp import (
     rate_bounds,
     solve_dls_qp,
 )
+from core.cartesian.rate.tick_qp import DlsQpSolver
 from core.errors import InputError
 from core.kinematics import task_rows
 

@@ -1,4 +1,4 @@
-"""Draw the shipped robots' collision capsules at their home poses: ``python -m robots.geometry.figure``
+"""Draw the shipped robots' collision capsules at their home poses: ``python docs/figures/collision_geometry.py`` (from the project root)
 writes ``docs/collision_geometry.png`` (side views; the figure of docs/robots.md "Collision geometry").
 
 Needs matplotlib, a development tool and not a service dependency: the service never imports this.
@@ -7,6 +7,9 @@ Needs matplotlib, a development tool and not a service dependency: the service n
 from __future__ import annotations
 
 import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the project root: robots/
 
 import matplotlib
 

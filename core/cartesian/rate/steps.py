@@ -1,0 +1,155 @@
+"""The pieces of a resolved-rate tick around the QP (``core.cartesian.rate.control`` runs them):
+singular values by LAPACK without numpy's per-call wrapper, the path-clock rate, the pseudo-inverse
+step, and why a run stopped."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg.lapack import dgesdd, dposv
+
+from core.cartesian.joint_limits import outside, over_speed
+from core.cartesian.rate.qp import SINGULAR_REGION
+from core.errors import JointLimit, JointRateLimit, NoConvergence, PlanningError, Singularity
+from core.geometry import so3
+from core.geometry.so3 import SCALAR_LOG_MAX_ANGLE, SMALL_ANGLE
+
+PINV_SINGULAR_THRESHOLD = 1e-3
+"""``resolved_rate`` refuses to step below this smallest singular value (J^+ would amplify 1000x)."""
+TIME_SCALE_MARGIN = 0.95
+"""The path clock slows so the feedforward rates use at most this share of the velocity limits,
+leaving the rest to the feedback term."""
+
+
+def svd(J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Thin SVD ``(U, S, Vt)`` of ``J`` by LAPACK's gesdd, as ``np.linalg.svd`` computes it (the
+    same routine, without numpy's per-call wrapper: 9 against 17 us for 6x6); numpy's raises
+    where gesdd does not converge."""
+    U, S, Vt, info = dgesdd(J, full_matrices=0)
+    if info != 0:
+        return np.linalg.svd(J, full_matrices=False)
+    return U, S, Vt
+
+
+def singular_values(J: np.ndarray) -> np.ndarray:
+    """Singular values of ``J`` by gesdd without the vectors (6 against 11 us for 6x7)."""
+    _, S, _, info = dgesdd(J, compute_uv=0)
+    return np.linalg.svd(J, compute_uv=False) if info != 0 else S
+
+
+def pose_error(p: list[float], p_d: list[float], M: list[list[float]] | None) -> list[float]:
+    """``[p_d - p, log(M)]`` (6 floats) for the tool position ``p`` (3), the setpoint ``p_d`` (3)
+    and the orientation error ``M = R_d R^T`` (3x3 nested lists; None: no rotation part, zeros).
+
+    ``so3.log``'s scalar route in Python floats (the same operations in the same order, so the
+    same bits: a few us less per tick than numpy on a 3x3 array); ``so3.log`` itself beyond
+    ``SCALAR_LOG_MAX_ANGLE``.
+    """
+    e = [p_d[0] - p[0], p_d[1] - p[1], p_d[2] - p[2], 0.0, 0.0, 0.0]
+    if M is None:
+        return e
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = M
+    w0, w1, w2 = m21 - m12, m02 - m20, m10 - m01  # 2 sin(angle) axis
+    sin = 0.5 * math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    angle = math.atan2(sin, 0.5 * (m00 + m11 + m22 - 1.0))
+    if angle < SMALL_ANGLE:
+        f = 0.5 * (1.0 + angle * angle / 6.0 + 7.0 * angle**4 / 360.0)
+    elif angle <= SCALAR_LOG_MAX_ANGLE:
+        f = 0.5 * angle / sin
+    else:
+        e[3:] = so3.log(np.array(M)).tolist()
+        return e
+    e[3], e[4], e[5] = f * w0, f * w1, f * w2
+    return e
+
+
+def first_limit(
+    after: np.ndarray, lo_q: np.ndarray, hi_q: np.ndarray, s_log: np.ndarray
+) -> tuple[float, int] | None:
+    """``(s, joint)`` of the first step whose next positions ``after[k]`` (positions[k + 1]) put
+    a joint at its position limit, or None."""
+    pinned = (after <= lo_q) | (after >= hi_q)
+    hits = np.flatnonzero(pinned.any(axis=1))
+    if not hits.size:
+        return None
+    k = int(hits[0])
+    return float(s_log[k]), int(np.argmax(pinned[k]))
+
+
+def feedforward_ratio(J: np.ndarray, twist: np.ndarray, lam: float, vmax: np.ndarray) -> float:
+    """``max_j |qd_j| / v_max_j`` of the DLS rates ``qd = J^T (J J^T + lam^2 I)^-1 twist`` of the
+    feedforward twist: the quantity ``time_scale`` bounds, by a Cholesky solve (4 against 10 us
+    for the SVD route on the Panda; equal to ~1e-14 relative away from singularities, where
+    ``lam = 0`` needs ``sigma_min >= SINGULAR_REGION``); inf when the solve fails."""
+    A = J.dot(J.T)
+    if lam != 0.0:
+        A.flat[:: A.shape[0] + 1] += lam * lam
+    _, x, info = dposv(A, twist)
+    if info != 0:
+        return math.inf
+    return float((np.abs(J.T.dot(x)) / vmax).max())
+
+
+def time_scale(U, S, Vt, twist: np.ndarray, lam: float, vmax: np.ndarray) -> float:
+    """Path-clock rate in (0, 1] that keeps the DLS rates ``V diag(S / (S^2 + lam^2)) U^T twist``
+    of the feedforward twist within ``TIME_SCALE_MARGIN`` of the velocity limits (1 when they
+    already are); ``U, S, Vt`` is the thin SVD of the task Jacobian."""
+    qd = Vt.T.dot(S / (S * S + lam * lam) * U.T.dot(twist))  # (dot: the BLAS call of @, faster)
+    ratio = float((np.abs(qd) / vmax).max())
+    return 1.0 if ratio <= TIME_SCALE_MARGIN else TIME_SCALE_MARGIN / ratio
+
+
+def pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
+    """The ``resolved_rate`` step ``J^+ V`` (``J^-1 V`` when square) from the thin SVD of ``J``:
+    ``(failure, qd)`` with exactly one of them set."""
+    sigma, vmax = float(S[-1]), limits.velocity
+    if sigma < PINV_SINGULAR_THRESHOLD:
+        detail = f"the Jacobian is singular (smallest singular value {sigma:.2e}) at s={s:.4f}"
+        return Singularity(detail, s=s, extra={"min_singular_value": sigma}), None
+    qd = Vt.T @ ((U.T @ V) / S)
+    fast = np.flatnonzero(over_speed(qd, vmax))
+    if fast.size:
+        j = int(fast[np.argmax(np.abs(qd[fast]) / vmax[fast])])
+        detail = (
+            f"joint {robot.joint_names[j]} would need {abs(qd[j]):.3g} rad/s (limit "
+            f"{vmax[j]:.3g}) at s={s:.4f}; the pseudo-inverse does not slow down (the DLS does)"
+        )
+        return JointRateLimit(detail, joint=j, s=s, extra={"rate": float(abs(qd[j]))}), None
+    q_next = q + qd * dt
+    out = np.flatnonzero(outside(q_next, limits.position))
+    if out.size:
+        j = int(out[0])
+        detail = f"joint {robot.joint_names[j]} reaches its limit at s={s:.4f}"
+        return JointLimit(detail, joint=j, s=s), None
+    return None, qd
+
+
+def stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningError:
+    """Why a DLS run ended short of the goal: a pinned joint, the velocity limits (the path clock
+    did not reach the end), damping, or plain non-convergence."""
+    s_reached = float(line.deviation(robot.fk(q)[None]).s[0])
+    if first_limit is not None:
+        s_hit, j = first_limit
+        lo, hi = robot.position_limits[j]
+        if q[j] <= lo or q[j] >= hi:
+            detail = (
+                f"joint {robot.joint_names[j]} is held at its position limit (reached at "
+                f"s={s_hit:.4f}); the tool cannot follow the line past s={s_reached:.4f}"
+            )
+            return JointLimit(detail, joint=j, s=s_hit)
+    if not at_end:
+        detail = (
+            f"the joint velocity limits slowed the line so much that after {elapsed:.3f} s it was "
+            f"only at s={s:.4f}; ask for a longer duration or lower tool speeds"
+        )
+        return JointRateLimit(detail, s=s)
+    if sigma < SINGULAR_REGION:
+        detail = (
+            f"the arm is stuck at a singular configuration (smallest singular value {sigma:.2e}) "
+            f"at s={s_reached:.4f}: a singularity or the edge of the workspace"
+        )
+        return Singularity(detail, s=s_reached, extra={"min_singular_value": float(sigma)})
+    return NoConvergence(
+        f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
+    )

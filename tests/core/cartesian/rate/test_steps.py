@@ -1,0 +1,86 @@
+"""The scalar and LAPACK pieces of a tick against numpy/scipy references: the pose error against
+``so3.log`` and scipy's rotation vector, the singular values and thin SVD against
+``np.linalg.svd``, the Cholesky feed-forward ratio against the SVD form."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from core.cartesian.rate.control import nominal_timing
+from core.cartesian.rate.setpoint import LineSetpoint, PathSetpoint
+from core.cartesian.rate.steps import feedforward_ratio, pose_error, singular_values, svd
+from core.cartesian.validate import validated_line
+from core.geometry import so3
+from tests.core.cartesian.rate.scenarios import SCENARIOS
+
+
+@pytest.mark.parametrize("scale", [1e-5, 0.01, 0.5, 1.5, 3.0])
+def test_pose_error_is_so3_log_of_the_orientation_error(scale):
+    rng = np.random.default_rng(int(scale * 1e5))
+    for _ in range(50):
+        R = Rotation.random(random_state=rng).as_matrix()
+        R_d = Rotation.from_rotvec(rng.normal(size=3) * scale).as_matrix() @ R
+        M = R_d @ R.T
+        p, p_d = rng.normal(size=3), rng.normal(size=3)
+        e = np.array(pose_error(p.tolist(), p_d.tolist(), M.tolist()))
+        assert np.array_equal(e[:3], p_d - p)
+        assert np.array_equal(e[3:], so3.log(M))  # the same operations: the same bits
+        assert np.allclose(e[3:], Rotation.from_matrix(M).as_rotvec(), atol=1e-12)
+    assert pose_error([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], None) == [-1.0, -2.0, -3.0, 0, 0, 0]
+
+
+def test_svd_pieces_match_numpy():
+    rng = np.random.default_rng(4)
+    for shape in [(6, 6), (6, 7), (2, 2), (6, 3)]:
+        J = rng.normal(size=shape)
+        U, S, Vt = svd(J)
+        U0, S0, Vt0 = np.linalg.svd(J, full_matrices=False)
+        assert np.array_equal(S, S0)  # the same LAPACK routine: the same values
+        assert np.allclose((U * S) @ Vt, J, rtol=0, atol=1e-13)
+        assert np.allclose(np.abs(U), np.abs(U0), atol=1e-12)
+        assert np.allclose(np.abs(Vt), np.abs(Vt0), atol=1e-12)
+        assert np.allclose(singular_values(J), S0, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("lam", [0.0, 3e-3, 0.04])
+def test_feedforward_ratio_equals_the_svd_form(lam):
+    rng = np.random.default_rng(int(lam * 1e4))
+    vmax = rng.uniform(1.0, 3.0, 7)
+    for _ in range(50):
+        J, twist = rng.normal(size=(6, 7)), rng.normal(size=6)
+        U, S, Vt = np.linalg.svd(J, full_matrices=False)
+        qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
+        exact = np.max(np.abs(qd) / vmax)
+        assert feedforward_ratio(J, twist, lam, vmax) == pytest.approx(exact, rel=1e-11)
+    assert feedforward_ratio(np.zeros((6, 7)), np.ones(6), 0.0, vmax) == np.inf  # singular
+
+
+def test_tabulated_setpoints_equal_the_per_tick_ones():
+    pytest.importorskip("robots.registry")
+    task = SCENARIOS["puma_wrist_dls"][0]()
+    line = validated_line(task)
+    timing = nominal_timing(task, line)
+    dt = timing.duration / 200
+    setpoint = LineSetpoint(line, timing, dt, 200)
+    generic = PathSetpoint(line, timing, dt, 200)  # the arc's code path, on the same line
+    for tau0 in (0.0, 0.37 * dt, 150.5 * dt):  # the last block runs past the end (held there)
+        s, sd, p_d, R_d, u = setpoint.block(tau0, 80)
+        g_s, g_sd, g_p, g_R, g_u = generic.block(tau0, 80)
+        tau = tau0
+        for k in range(80):
+            s_k, sd_k, p_k, R_k, u_k = setpoint(tau)
+            assert (s[k], sd[k], p_d[k]) == (s_k, sd_k, p_k)
+            assert np.array_equal(R_d[k], np.reshape(R_k, (3, 3)))
+            assert u[k] is u_k is setpoint.unit
+            # the generic (arc) setpoint: the same poses and unit twists to rounding
+            gs_k, gsd_k, gp_k, gR_k, gu_k = generic(tau)
+            assert (g_s[k], g_sd[k]) == (gs_k, gsd_k) == (s_k, sd_k)
+            np.testing.assert_allclose(g_p[k], p_k, atol=1e-12)
+            np.testing.assert_allclose(gp_k, p_k, atol=1e-12)
+            np.testing.assert_allclose(g_R[k], np.reshape(R_k, (3, 3)), atol=1e-12)
+            np.testing.assert_allclose(np.reshape(gR_k, (3, 3)), g_R[k], atol=1e-12)
+            np.testing.assert_allclose(g_u[k], u_k, atol=1e-12)
+            np.testing.assert_allclose(gu_k, u_k, atol=1e-12)
+            tau = tau + 1.0 * dt
