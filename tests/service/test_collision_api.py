@@ -508,3 +508,65 @@ def test_bounded_deviation_nlp_uses_the_tolerance_band_to_pass_a_ball(client) ->
     tool = np.array([point_segment(center, *tool_capsule(q)[:2]) for q in qs]) - R - r
     assert tool.min() >= clearance - 1e-9
     assert tool.min() < clearance + 0.01  # it passes close: the band is used, not a detour
+
+
+PANDA = registry.get("panda")
+
+
+def panda_capsules_world(q) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
+    """Every Panda capsule in the base frame, placed by pinocchio's frame poses."""
+    out = []
+    for c in ROBOT_GEOMETRY["panda"].capsules:
+        T = PANDA.frame_pose(np.asarray(q), c.link)
+        out.append((c.link, T[:3, :3] @ c.a + T[:3, 3], T[:3, :3] @ c.b + T[:3, 3], c.radius))
+    return out
+
+
+def test_resolved_rate_dls_moves_the_elbow_around_a_ball(client) -> None:
+    """A Panda LIN (+0.2 m in x, 2 s) whose elbow (panda_link4) would pass 2 mm from a ball with a
+    10 mm clearance: sampled is 422 collision; with DLS the velocity dampers keep the clearance
+    (closed-form ball-to-capsule distances on the returned points), the tool stays on the line
+    within 1 mm, and the elbow leaves the plane it moves in without the ball (null-space motion)."""
+    T0 = PANDA.fk(PANDA.home)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.2, 0.0, 0.0]
+    center, R, clearance = np.array([-0.07, 0.172, 0.652]), 0.05, 0.01
+    body = {
+        "robot": "panda",
+        "start": {"positions": PANDA.home.tolist()},
+        "goal": {"pose": Pose.from_matrix(T1).model_dump()},
+        "duration": 2.0,
+        "tolerance": {"position": 1e-3, "orientation": 1e-2},
+        "environment": {"obstacles": [ball("ball", center, R)], "clearance": clearance},
+    }
+    err = problem(
+        client.post("/v1/trajectories/cartesian", json={**body, "method": "sampled"}),
+        422,
+        "collision",
+    )
+    assert err["links"] == ["panda_link4", "ball"]
+    res = client.post("/v1/trajectories/cartesian", json={**body, "method": "resolved_rate_dls"})
+    assert res.status_code == 200, res.json()
+    doc = res.json()
+    assert doc["diagnostics"]["min_clearance"] >= clearance
+    qs = np.array([p["positions"] for p in doc["points"]])
+    gaps = [
+        point_segment(center, a, b) - r - R for q in qs for _, a, b, r in panda_capsules_world(q)
+    ]
+    assert min(gaps) >= clearance
+    # the tool on the line (independent: FK of the returned points against the segment)
+    p0, p1 = T0[:3, 3], T1[:3, 3]
+    off_line = [point_segment(PANDA.fk(q)[:3, 3], p0, p1) for q in qs]
+    assert max(off_line) <= 1e-3
+    np.testing.assert_allclose(PANDA.fk(qs[-1])[:3, 3], p1, atol=1e-3)
+    # the elbow: in the plane y = 0 without the ball (the arm's symmetry), away from it with it
+    free = client.post(
+        "/v1/trajectories/cartesian",
+        json={**body, "method": "resolved_rate_dls", "environment": None},
+    ).json()
+    y_free = [
+        PANDA.frame_pose(np.array(p["positions"]), "panda_link4")[1, 3] for p in free["points"]
+    ]
+    y_avoid = [PANDA.frame_pose(q, "panda_link4")[1, 3] for q in qs]
+    assert max(abs(y) for y in y_free) < 1e-6
+    assert min(y_avoid) < -0.005 and max(y_avoid) < 1e-6
