@@ -31,11 +31,14 @@ class Clearance(Protocol):
     """Distances between a robot's geometry, obstacles and its own links.
 
     ``pair_names[p]`` is ``(robot_link, obstacle_or_link)``; ``threshold[p]`` [m] is the distance below
-    which pair ``p`` is a contact (the clearance for obstacles, 0 for self pairs).
+    which pair ``p`` is a contact (the clearance for obstacles, 0 for self pairs);
+    ``motion_weights`` ``(P, dof)``: pair ``p``'s distance changes by at most
+    ``motion_weights[p] @ |dq|`` [m] over a linear joint step ``dq`` (a Lipschitz bound).
     """
 
     pair_names: list[tuple[str, str]]
     threshold: np.ndarray
+    motion_weights: np.ndarray
 
     def distances(self, qs: np.ndarray) -> np.ndarray:
         """Signed distances ``(N, P)`` [m] of every pair for each row of ``qs`` ``(N, dof)``."""
@@ -220,17 +223,24 @@ class VelocityDampers:
         self.clearance, self.dt, self.influence, self.gain = clearance, dt, influence, gain
         self.buffer = buffer
         self.capacity = int(capacity)
-        self.reach = float(np.max(clearance.threshold, initial=0.0)) + influence
-        self.min_margin = float("inf")
-        """[m] Smallest ``d - threshold`` seen at a tick (the closed-form distances)."""
+        # pairs are queried out to twice the influence: the motion bound then skips ticks
+        self.reach = float(np.max(clearance.threshold, initial=0.0)) + 2.0 * influence
+        self._ref: tuple[np.ndarray, np.ndarray] | None = None  # (q, margin lower bounds)
+        self.evaluations = 0
+        """Ticks that queried ``close_pairs`` (the others were far by the motion bound)."""
 
     def __call__(self, q: np.ndarray) -> list[tuple[np.ndarray, float]]:
         c = self.clearance
-        margin = c.distances(np.asarray(q, dtype=float)[None])[0] - c.threshold
-        self.min_margin = min(self.min_margin, float(np.min(margin, initial=np.inf)))
-        if not (margin < self.influence).any():  # nothing near: no coal query
-            return []
+        q = np.asarray(q, dtype=float)
+        if self._ref is not None:  # every pair still beyond the influence since the last query
+            q_ref, m_ref = self._ref
+            if (m_ref - c.motion_weights @ np.abs(q - q_ref) >= self.influence).all():
+                return []
         pairs, d, n, Jp = c.close_pairs(q, self.reach)
+        self.evaluations += 1
+        margin = self.reach - c.threshold  # pairs not returned are at least ``reach`` apart
+        margin[pairs] = d - c.threshold[pairs]
+        self._ref = (q.copy(), margin)
         slack = d - c.threshold[pairs]
         near = np.flatnonzero(slack < self.influence)
         near = near[np.argsort(slack[near])][: self.capacity]

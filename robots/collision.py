@@ -247,6 +247,12 @@ class CollisionChecker:
     def n_pairs(self) -> int:
         return len(self.pair_names)
 
+    @property
+    def motion_weights(self) -> np.ndarray:
+        """``core.clearance.Clearance.motion_weights``: ``(P, dof)``, a pair's distance changes by
+        at most ``motion_weights @ |dq|`` [m] over a linear joint step ``dq``."""
+        return self._weights
+
     # motion bound ------------------------------------------------------------------------------
     def _motion_weights(self) -> np.ndarray:
         """``(P, nq)``: a pair's distance changes by at most ``weights @ |dq|`` over a linear step."""

@@ -29,9 +29,11 @@ def panda_with_ball(offset: float, clearance: float = 0.01) -> tuple[CollisionCh
 def test_far_obstacle_gives_no_rows() -> None:
     check, q = panda_with_ball(1.0)
     dampers = VelocityDampers(check, 1e-3)
-    assert dampers(q) == []
-    margin = check.distances(q[None])[0] - check.threshold
-    assert dampers.min_margin == pytest.approx(margin.min(), abs=1e-12)
+    assert dampers(q) == [] and dampers.evaluations == 1
+    # a small step: the motion bound shows every pair still far, no distance query
+    assert dampers(q + 1e-3) == [] and dampers.evaluations == 1
+    # a step the bound cannot clear: queried again
+    assert dampers(q + 0.5) == [] and dampers.evaluations == 2
 
 
 def test_rows_close_the_gain_share_of_the_margin() -> None:
