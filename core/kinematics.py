@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
@@ -35,6 +36,64 @@ class IKResult(NamedTuple):
     orientation_error: float
     iterations: int
     within_limits: bool
+
+
+class Solutions(Protocol):
+    """Every IK solution of one pose (``Kinematics.ik_all``; ``robots.ik.IKSolutions`` is one)."""
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(k, dof)`` verified solutions inside the joint limits [rad or m]."""
+        ...
+
+    @property
+    def configurations(self) -> tuple[str | None, ...]:
+        """One configuration label per solution (None for robots without labels)."""
+        ...
+
+    @property
+    def outside_limits(self) -> int:
+        """Distinct solutions (modulo 2 pi) that reproduce the pose only outside the limits."""
+        ...
+
+
+class PathSolutions(Protocol):
+    """IK of a sequence of poses on one configuration (``Kinematics.ik_many``; ``robots.ik.IKPath``
+    is one)."""
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(N, dof)`` joint positions, 2 pi turns unwrapped from the seed; a row without a
+        solution repeats the previous one."""
+        ...
+
+    @property
+    def found(self) -> np.ndarray:
+        """``(N,)`` bool: a verified solution with the configuration exists at that pose."""
+        ...
+
+    @property
+    def within_limits(self) -> np.ndarray:
+        """``(N,)`` bool: found, and inside the joint position limits."""
+        ...
+
+
+@dataclass(frozen=True)
+class PathSolutionSet:
+    """A plain ``PathSolutions`` (the default ``ik_many`` of ``DerivedKinematics``)."""
+
+    positions: np.ndarray
+    found: np.ndarray
+    within_limits: np.ndarray
+
+
+@dataclass(frozen=True)
+class SolutionSet:
+    """A plain ``Solutions`` (the default ``ik_all`` of ``DerivedKinematics``)."""
+
+    positions: np.ndarray
+    configurations: tuple[str | None, ...]
+    outside_limits: int
 
 
 class Kinematics(Protocol):
@@ -111,6 +170,27 @@ class Kinematics(Protocol):
         tells a solution reachable only outside them from no solution)."""
         ...
 
+    def configuration(self, q: np.ndarray) -> str | None:
+        """The configuration label (IK branch) of ``q`` (dof,), None for robots without labels."""
+        ...
+
+    def configurations(self, qs: np.ndarray) -> list[str | None]:
+        """The configuration label of each row of ``qs`` ``(N, dof)``."""
+        ...
+
+    def ik_all(self, T_base_tool: np.ndarray, seed: np.ndarray | None = None) -> Solutions:
+        """Every IK solution of ``T_base_tool`` inside the limits (nearest ``seed`` first), with
+        their labels and the count of solutions only outside the limits; empty when the pose is
+        off the workspace. Core calls it only for robots with labels."""
+        ...
+
+    def ik_many(
+        self, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+    ) -> PathSolutions:
+        """IK of every pose of ``Ts`` ``(N, 4, 4)`` on one configuration (default the seed's),
+        verified to 1e-9 m and rad (batched for analytic arms)."""
+        ...
+
 
 class SymbolicKinematics(Kinematics, Protocol):
     """A robot whose FK is also a CasADi expression (the bounded-deviation NLP needs it)."""
@@ -146,6 +226,38 @@ class DerivedKinematics:
 
     def fk_jacobian_loop(self) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
         return self.fk_jacobian
+
+    def configuration(self, q: np.ndarray) -> str | None:
+        """No labels: core keeps its jump-ratio branch test for such a model."""
+        return None
+
+    def configurations(self, qs: np.ndarray) -> list[str | None]:
+        return [None] * len(np.atleast_2d(qs))
+
+    def ik_all(self, T_base_tool: np.ndarray, seed: np.ndarray | None = None) -> Solutions:
+        """The one solution ``ik`` finds from ``seed`` (unlabelled; none when it does not converge)."""
+        start = np.zeros(self.dof) if seed is None else np.asarray(seed, dtype=float)
+        r = self.ik(T_base_tool, start)  # type: ignore[attr-defined]
+        if not r.success:
+            outside = int(not r.within_limits and max(r.position_error, r.orientation_error) < 1e-6)
+            return SolutionSet(np.zeros((0, len(start))), (), outside)
+        return SolutionSet(np.asarray(r.positions, dtype=float)[None], (None,), 0)
+
+    def ik_many(
+        self, Ts: np.ndarray, seed: np.ndarray, configuration: str | None = None
+    ) -> PathSolutions:
+        """``ik`` pose by pose, each from the previous solution (the label is not checked)."""
+        Ts = np.asarray(Ts, dtype=float)
+        positions = np.zeros((len(Ts), self.dof))
+        found, within = np.zeros(len(Ts), dtype=bool), np.zeros(len(Ts), dtype=bool)
+        previous = np.asarray(seed, dtype=float)
+        for i, T in enumerate(Ts):
+            r = self.ik(T, previous)  # type: ignore[attr-defined]
+            found[i] = max(r.position_error, r.orientation_error) <= 1e-9
+            within[i] = found[i] and r.within_limits
+            previous = np.asarray(r.positions, dtype=float) if found[i] else previous
+            positions[i] = previous
+        return PathSolutionSet(positions, found, within)
 
 
 TASK_SPACES = ("pose", "position_xy")

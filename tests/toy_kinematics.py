@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from core.kinematics import DerivedKinematics, IKResult
+from core.kinematics import DerivedKinematics, IKResult, SolutionSet
 
 
 class ToyPlanar2R(DerivedKinematics):
@@ -84,3 +84,41 @@ class FlippingToy(ToyPlanar2R):
         q1, q2 = r.positions
         other = np.array([q1 + 2 * math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2)), -q2])
         return r._replace(positions=other)
+
+
+class LabelledToy(ToyPlanar2R):
+    """The toy arm with configuration labels (``down``: q2 >= 0, ``up``: q2 < 0, as the shipped
+    planar arm's) and every IK solution (the closed form's two elbows); past x = ``x_cut`` [m] the
+    ``down`` solutions do not exist (a pose there has only ``up``), so a line from a ``down`` start
+    must flip its branch where it crosses x_cut."""
+
+    x_cut = 1.1
+
+    def configuration(self, q):
+        return "down" if q[1] >= 0.0 else "up"
+
+    def configurations(self, qs):
+        return ["down" if q2 >= 0.0 else "up" for q2 in np.atleast_2d(qs)[:, 1]]
+
+    def ik_all(self, T_base_tool, seed=None):
+        x, y = T_base_tool[0, 3], T_base_tool[1, 3]
+        c2 = (x * x + y * y - self.l1**2 - self.l2**2) / (2 * self.l1 * self.l2)
+        if abs(c2) > 1.0:
+            return SolutionSet(np.zeros((0, 2)), (), 0)
+        sols = []
+        for sign in (1.0, -1.0):
+            q2 = sign * math.acos(c2)
+            q1 = math.atan2(y, x) - math.atan2(
+                self.l2 * math.sin(q2), self.l1 + self.l2 * math.cos(q2)
+            )
+            if sign > 0 and x > self.x_cut:
+                continue
+            sols.append([q1, q2])
+        Q = np.array(sols)
+        return SolutionSet(Q, tuple(self.configurations(Q)), 0)
+
+    def ik(self, T_base_tool, seed, **kw) -> IKResult:
+        r = super().ik(T_base_tool, seed, **kw)
+        if T_base_tool[0, 3] > self.x_cut and r.positions[1] >= 0.0:
+            return r._replace(positions=self.ik_all(T_base_tool).positions[0])
+        return r

@@ -5,11 +5,14 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from scipy.interpolate import CubicHermiteSpline
 
+from core.cartesian.ik_on_path import label_change
 from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.measure import DeviationReport, measure_chunked, min_singular_values
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
+    BranchFlip,
     Infeasible,
     JointLimit,
     JointRateLimit,
@@ -46,15 +49,54 @@ def check_limits(robot: Kinematics, traj: Trajectory, s: np.ndarray | None = Non
 def finish(
     task: CartesianTask, result: CartesianResult, s: np.ndarray | None = None
 ) -> CartesianResult:
-    """``result`` checked (joint limits) and measured (dense deviation, smallest singular value at
+    """``result`` checked (joint limits, the start's configuration label) and measured (dense deviation, smallest singular value at
     every returned point): a new frozen result with ``deviation``, ``singular_values`` and
     ``min_singular_value`` set."""
     check_limits(task.robot, result.trajectory, s)
     deviation = measure(task, result.trajectory)
+    flip = check_labels(task, result.trajectory, s, deviation)
+    if flip is not None:
+        if not task.allow_violations:
+            raise flip
+        result = replace(result, warnings=(*result.warnings, f"{flip} (allow_violations)"))
     sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
     return replace(
         result, deviation=deviation, singular_values=sv, min_singular_value=float(sv.min())
     )
+
+
+def check_labels(
+    task: CartesianTask,
+    traj: Trajectory,
+    s: np.ndarray | None = None,
+    deviation: DeviationReport | None = None,
+) -> BranchFlip | None:
+    """``BranchFlip`` at the first returned point, or midpoint between two (the cubic Hermite
+    spline a controller follows, at the middle of each interval), whose configuration label differs
+    from the start's (robots with labels; one batched ``configurations`` call of 2N - 1 rows). Its
+    ``s``: from ``s`` (N,), else the dense measurement's closest path parameter at that point (a
+    midpoint: the mean of its ends'). None when every point keeps the start's label (or the robot
+    has none). ``finish`` raises it, or with ``allow_violations`` returns the plan with it as a
+    warning (the DLS may pass a singularity on purpose)."""
+    label = task.robot.configuration(np.asarray(task.q_start, dtype=float))
+    if label is None:
+        return None
+    q, n = traj.positions, len(traj.times)
+    if n > 1:
+        t_mid = 0.5 * (traj.times[:-1] + traj.times[1:])
+        mid = CubicHermiteSpline(traj.times, q, traj.velocities, axis=0)(t_mid)
+        q = np.insert(q, np.arange(1, n), mid, axis=0)  # p0, m0, p1, m1, ..., p_{n-1}
+    off = np.flatnonzero(np.array(task.robot.configurations(q)) != label)
+    if not len(off):
+        return None
+    if s is not None:
+        at_points = np.asarray(s, dtype=float)
+    elif deviation is not None and n > 1:
+        at_points = deviation.s[:: (len(deviation.s) - 1) // (n - 1)]
+    else:
+        at_points = np.zeros(n)
+    k = int(off[0])
+    return label_change(float(0.5 * (at_points[k // 2] + at_points[(k + 1) // 2])), label)
 
 
 def measure(task: CartesianTask, traj: Trajectory) -> DeviationReport:

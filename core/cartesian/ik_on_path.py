@@ -3,6 +3,12 @@
 branch (``solve_on_line``), continuation along the whole line (``continuation``) and goal
 configuration on the start's branch (``goal_configuration``). The ``sampled`` walk
 (``core.cartesian.walk``) and its batched solve use the same call, tolerance and test.
+
+Robots with configuration labels (``Kinematics.configuration``, issue 14) follow their start's
+label exactly: a solution on another label is never taken, and a pose where IK fails is decided
+from every solution of it (``on_label``): none at all is ``unreachable``, some only outside the
+joint limits ``joint_limit``, some only on other labels ``branch_flip`` (``label_change`` names a
+label change found on returned points). Robots without labels keep the jump-ratio tests above.
 """
 
 from __future__ import annotations
@@ -14,10 +20,12 @@ from core.cartesian.knot_path import Knots
 from core.errors import (
     BranchFlip,
     JointLimit,
+    PlanningError,
+    Singularity,
     Unreachable,
 )
 from core.geometry import so3
-from core.kinematics import IKResult, Kinematics, task_rows
+from core.kinematics import IKResult, Kinematics, jacobians, task_rows
 from core.path.line import StraightLine
 
 IK_TOLERANCE = 1e-6
@@ -39,6 +47,13 @@ CONTINUATION_STEP = (0.05, 0.25)
 on the start's branch."""
 CONTINUATION_JOINT_STEP = 0.1
 """Largest predicted joint step [rad] of one continuation step."""
+LABEL_BOUNDARY = 1e-6
+"""Smallest task-Jacobian singular value below which a solution lies on the singular set where
+labels change: it is the limit of every adjacent label's branch (``on_label``)."""
+NEAR_SINGULAR = 1e-3
+"""Smallest task-Jacobian singular value below which a pose without a solution in the start's
+label is a ``singularity`` (next to the singular set, IK may return representatives only), not a
+``branch_flip`` (``core.cartesian.walk.SINGULAR_VALUE_THRESHOLD``, the walk's threshold)."""
 MIN_CONTINUATION_STEP = 1e-5
 """Shortest continuation step [share of s]; a failure there is the line's failure."""
 
@@ -99,6 +114,60 @@ def same_branch(step: np.ndarray, predicted: np.ndarray) -> bool:
     return float(np.max(np.abs(step))) <= limit
 
 
+def on_label(
+    kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray
+) -> np.ndarray | PlanningError:
+    """The exact answer at the pose ``T`` (path parameter ``s``) for a robot with labels: the
+    solution with the start's configuration ``label`` nearest ``near`` (``kin.ik_all``: every
+    solution), else why there is none -- ``Unreachable`` when the pose has no solution at all (off
+    the workspace), ``JointLimit`` when it has some only outside the joint limits, ``BranchFlip``
+    when every solution carries another label -- unless one is singular: on the boundary between
+    labels (``LABEL_BOUNDARY``) it is returned, next to it (``NEAR_SINGULAR``) ``Singularity``."""
+    sols = kin.ik_all(T, np.asarray(near, dtype=float))
+    same = [i for i, c in enumerate(sols.configurations) if c == label]
+    if same:
+        return np.asarray(sols.positions[same[0]], dtype=float)
+    where = f"at s={s:.4f}"
+    if len(sols.positions):
+        J = jacobians(kin, np.asarray(sols.positions, dtype=float))[:, task_rows(kin.task_space)]
+        sigma = np.linalg.svd(J, compute_uv=False)[:, -1]
+        if sigma.min() < LABEL_BOUNDARY:  # on the singular set between labels: the limit of the
+            return np.asarray(sols.positions[int(np.argmin(sigma))], dtype=float)  # start's too
+        if sigma.min() < NEAR_SINGULAR:
+            return Singularity(
+                f"the pose {where} is next to a singularity (smallest singular value "
+                f"{sigma.min():.3g}) where IK finds no solution in the start's configuration "
+                f"({label}): the line passes the singular set there",
+                s=float(s),
+                extra={"min_singular_value": float(sigma.min())},
+            )
+        others = ", ".join(sorted({str(c) for c in sols.configurations}))
+        return BranchFlip(
+            f"the pose {where} has IK solutions only in other configurations ({others}) than the "
+            f"start's ({label}): the line would flip the arm's branch there",
+            s=float(s),
+            extra={"configuration": label},
+        )
+    if sols.outside_limits:
+        return JointLimit(
+            f"the pose {where} is reachable only outside the joint limits", s=float(s)
+        )
+    return Unreachable(
+        f"no IK solution {where}: the pose is off the robot's workspace",
+        s=float(s),
+    )
+
+
+def label_change(s: float, label: str) -> BranchFlip:
+    """The arm leaves the start's configuration ``label`` at ``s``."""
+    return BranchFlip(
+        f"the arm leaves the start's configuration ({label}) at s={s:.4f}: the line would flip "
+        "its branch there",
+        s=float(s),
+        extra={"configuration": label},
+    )
+
+
 def solve_on_line(
     kin: Kinematics,
     line: StraightLine,
@@ -107,6 +176,7 @@ def solve_on_line(
     reference: np.ndarray | None = None,
     *,
     strict: bool = False,
+    label: str | None = None,
 ) -> np.ndarray:
     """Joint positions (dof,) at the line's pose at ``s``, on the branch of ``seed``.
 
@@ -116,7 +186,9 @@ def solve_on_line(
     Jacobian predicts (``same_branch``); ``strict`` (small steps): when it is within
     ``STRICT_BRANCH`` of the predicted configuration. Raises ``BranchFlip`` when IK converges only on
     another branch, ``JointLimit`` when only outside the joint limits, ``Unreachable`` when not at
-    all; each with ``s``.
+    all; each with ``s``. With the start's configuration ``label`` (robots with labels) a solution
+    must also carry it (``strict`` callers check it afterwards, in a batch), and the failure is
+    decided exactly by ``on_label``.
     """
     T = line.pose(s)
     seed = np.asarray(seed, dtype=float)
@@ -136,18 +208,37 @@ def solve_on_line(
             outcome = "joint_limit" if outcome == "unreachable" else outcome
             continue
         q = np.asarray(res.positions, dtype=float)
-        if strict:
-            if follows(q, seed, anchors[0][1]):
-                return q
-        elif any(same_branch(q - anchor, predicted) for anchor, predicted in anchors):
+        # strict (short continuation steps): the label is checked in one batch at the end
+        keeps = label is None or strict or kin.configuration(q) == label
+        if keeps and _on_branch(q, anchors, strict):
             return q
         outcome = "branch_flip"
     where = f"at s={s:.4g}"
+    if label is not None:
+        exact = on_label(kin, T, s, label, seed)
+        if not isinstance(exact, np.ndarray):
+            raise exact
+        if _on_branch(exact, anchors, strict):
+            return exact
+        raise BranchFlip(
+            f"the solution in the start's configuration ({label}) {where} is not where the "
+            "Jacobian predicts the arm (it would jump there)",
+            s=float(s),
+        )
     if outcome == "branch_flip":
         raise BranchFlip(f"IK on the line {where} lands only on another branch", s=float(s))
     if outcome == "joint_limit":
         raise JointLimit(f"the line {where} is reachable only outside the joint limits", s=float(s))
     raise Unreachable(f"no IK solution within {IK_TOLERANCE:g} m on the line {where}", s=float(s))
+
+
+def _on_branch(q: np.ndarray, anchors: list[tuple[np.ndarray, np.ndarray]], strict: bool) -> bool:
+    """``solve_on_line``'s branch test: ``follows`` the first anchor's prediction (``strict``), or
+    ``same_branch`` from any anchor."""
+    if strict:
+        seed, step = anchors[0]
+        return bool(follows(q, seed, step))
+    return any(same_branch(q - anchor, predicted) for anchor, predicted in anchors)
 
 
 def continuation(
@@ -165,6 +256,7 @@ def continuation(
     ds_max = 1.0 / min(max(steps, 1), 256)
     rows = task_rows(kin.task_space)
     s, q = 0.0, np.asarray(q_start, dtype=float)
+    label = kin.configuration(q)
     s_list, q_list = [s], [q]
     halved = 1.0
     while s < 1.0:
@@ -176,8 +268,8 @@ def continuation(
         ds = max(ds, MIN_CONTINUATION_STEP)
         s_next = min(1.0, s + ds)
         try:
-            q = solve_on_line(kin, line, s_next, q, strict=True)
-        except (BranchFlip, Unreachable, JointLimit) as err:
+            q = solve_on_line(kin, line, s_next, q, strict=True, label=label)
+        except (BranchFlip, Unreachable, JointLimit, Singularity) as err:
             if ds <= MIN_CONTINUATION_STEP:
                 err.extra["s_reached"] = s
                 raise
@@ -186,6 +278,23 @@ def continuation(
         s, halved = s_next, min(1.0, 2.0 * halved)
         s_list.append(s)
         q_list.append(q)
+    if label is not None:  # the start's label at every point, in one batch
+        off = np.flatnonzero(np.array(kin.configurations(np.array(q_list))) != label)
+        if len(off):
+            i = int(off[0])
+            pair = np.array(q_list[i - 1 : i + 1])
+            J = jacobians(kin, pair)[:, task_rows(kin.task_space)]
+            sigma = float(np.linalg.svd(J, compute_uv=False)[:, -1].min())
+            err: PlanningError = label_change(s_list[i], label)
+            if sigma < NEAR_SINGULAR:  # the label changed through the singular set
+                err = Singularity(
+                    f"the line passes a singularity at s={s_list[i]:.4g} (smallest singular "
+                    f"value {sigma:.3g}) where the arm leaves the start's configuration ({label})",
+                    s=float(s_list[i]),
+                    extra={"min_singular_value": sigma},
+                )
+            err.extra["s_reached"] = s_list[i - 1]
+            raise err
     return Knots(np.array(s_list), np.array(q_list))
 
 
@@ -194,6 +303,16 @@ def reference_at(reference: Knots | None, s: float) -> np.ndarray | None:
     if reference is None:
         return None
     return np.array([np.interp(s, reference.s, col) for col in reference.positions.T])
+
+
+def label_note(kin: Kinematics, q_start: np.ndarray, q_goal: np.ndarray) -> str:
+    """``"; goal.positions are <label>, the line keeps the start's <label>"`` when the two labels
+    differ (robots with labels), else ``""``: for the warning on a requested goal configuration."""
+    start = kin.configuration(np.asarray(q_start, dtype=float))
+    goal = kin.configuration(np.asarray(q_goal, dtype=float))
+    if start is None or goal == start:
+        return ""
+    return f"; goal.positions are {goal}, the line keeps the start's {start}"
 
 
 def goal_configuration(
@@ -219,8 +338,8 @@ def goal_configuration(
             q,
             [
                 f"the line ends at the goal pose in another joint configuration than goal.positions "
-                f"(up to {gap:.3g} rad apart): the trajectory ends where the line leads, without a "
-                "branch flip"
+                f"(up to {gap:.3g} rad apart{label_note(kin, q_start, q_hint)}): the trajectory "
+                "ends where the line leads, without a branch flip"
             ],
             reference,
         )

@@ -104,9 +104,10 @@ def split_segments(
     path = KnotPath(knots)
     s_new = 0.5 * (knots.s[segments] + knots.s[segments + 1])
     seeds = path(s_new)
+    label = kin.configuration(knots.positions[0])  # the start's
     q_new = np.array(
         [
-            solve_on_line(kin, line, s, q, reference_at(reference, s))
+            solve_on_line(kin, line, s, q, reference_at(reference, s), label=label)
             for s, q in zip(s_new, seeds, strict=True)
         ]
     )

@@ -6,18 +6,18 @@ seeded where the Jacobian predicts the arm will be, q + dq/ds ds with dq/ds = J^
 twist per unit s), so the arm stays on one branch. A step that misbehaves is halved, down to
 ``MIN_STEP``; what still fails there is the failure, with its cause and s:
 
-- ``unreachable`` (Type I): no IK solution within ``IK_TOLERANCE`` (1e-6 m and rad);
+- ``unreachable`` (Type I): no IK solution within ``IK_TOLERANCE`` (1e-6 m and rad); with labels
+  (``robot.configuration``) exactly: ``ik_all`` has none (``ik_on_path.on_label``);
 - ``joint_limit``: the solution on the branch being followed leaves the joint limits (IK runs
   without clipping to the limits, so a redundant arm is not slid along a limit off its path);
-- ``branch_flip``: a joint step off the Jacobian's prediction by more than ``STRICT_BRANCH``
-  (``core.cartesian.ik_on_path.follows``) even for the smallest step (IK on another branch);
+- ``branch_flip``: with labels, the pose has solutions only with other labels than the start's, or
+  a walked point carries another label; without, a joint step off the Jacobian's prediction by
+  more than ``STRICT_BRANCH`` (``ik_on_path.follows``) even for the smallest step;
 - ``singularity`` (Type II): the smallest singular value of the task Jacobian is below
   ``SINGULAR_VALUE_THRESHOLD``, or joint rates need a slow-down below
   ``core.cartesian.timing.MIN_SPEED_FRACTION`` of the requested speed.
-
-``plan_sampled`` times the walked path with ``core.cartesian.timing.time_path``, places the returned
-points (IK at each, seeded from the walk and checked to be on its branch), and returns the planned
-prefix with ``fraction`` < 1 when ``allow_partial`` is set.
+``plan_sampled`` times the walked path, places the returned points and returns the planned prefix
+with ``fraction`` < 1 when ``allow_partial`` is set (``core.cartesian.methods.sampled``).
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ from core.cartesian.ik_on_path import (
     IK_TOLERANCE,
     STRICT_BRANCH,
     follows,
+    label_change,
+    on_label,
     residual,
     solve_ik,
 )
@@ -130,6 +132,7 @@ class Walker:
         self.floor = MIN_SPEED_FRACTION * nominal_speed if np.isfinite(nominal_speed) else 0.0
         self.lo, self.hi = self.robot.position_limits[:, 0], self.robot.position_limits[:, 1]
         self.ik_calls = 0
+        self.label = self.robot.configuration(np.asarray(task.q_start, dtype=float))
         # IK must not clip its iterates into the joint limits (``robots.Robot.ik`` does by default):
         # clipping would slide a redundant arm along a limit, off the path its rates describe; the
         # limits are checked here instead, on the solution of the branch being followed.
@@ -204,6 +207,10 @@ class Walker:
                         )
                     return q
                 reached = reached or (q, pred, step)
+        if self.label is not None:
+            exact = self.exact(s, T, seeds[0])
+            if not isinstance(exact, BranchFlip) or reached is None or self.inside(reached[1]):
+                return exact
         if reached is not None:
             q, pred, step = reached
             if not self.inside(pred):
@@ -228,6 +235,35 @@ class Walker:
             extra={"residual": residual},
         )
 
+    def exact(self, s: float, T: np.ndarray, seed: Seed) -> np.ndarray | PlanningError:
+        """Robots with labels, where IK from the seeds failed: the solution with the start's
+        label (``on_label``, every solution of the pose) when it continues the branch, else why
+        not (``Unreachable``, ``JointLimit``, ``BranchFlip`` also when it would jump)."""
+        pred = seed.q + seed.dq * seed.h
+        self.ik_calls += 1
+        found = on_label(self.robot, T, s, str(self.label), pred)
+        if isinstance(found, PlanningError):
+            return found
+        q = self.unwrap(found, pred, T)
+        if not self.on_branch(q, seed):
+            # at a singular point (the workspace's edge) the rates cannot predict the step: the
+            # point is taken, and its check reports the singularity (then the edge, exactly)
+            sigma = path_rates(self.robot, self.line, q[None], second_order=False).sigma[0]
+            if sigma >= SINGULAR_VALUE_THRESHOLD:
+                return BranchFlip(
+                    f"the solution in the start's configuration ({self.label}) at s={s:.4f} is "
+                    "not where the Jacobian predicts the arm: it would jump there",
+                    s=s,
+                )
+        if not self.inside(q):
+            j = worst_joint(q, self.robot.position_limits)
+            return JointLimit(
+                f"joint {self.robot.joint_names[j]} leaves its position limits at s={s:.4f}",
+                s=s,
+                joint=j,
+            )
+        return q
+
     def advance(
         self, s0: float, q0: np.ndarray, dq0: np.ndarray, s1: float
     ) -> tuple[np.ndarray, PathRates] | PlanningError:
@@ -248,6 +284,10 @@ class Walker:
         seeds = (q, q + EDGE_SEED_OFFSET * lost, q - EDGE_SEED_OFFSET * lost)
 
         def reachable(at: float, starts: tuple[np.ndarray, ...] = seeds) -> tuple[bool, float]:
+            if self.label is not None:  # every solution is known: reachable exactly
+                self.ik_calls += 1
+                sols = self.robot.ik_all(self.line.pose(at), q)
+                return bool(len(sols.positions) or sols.outside_limits), np.nan
             best = np.inf
             for seed in starts:
                 found, ok, res = self.ik(self.line.pose(at), seed)
@@ -272,11 +312,12 @@ class Walker:
                 lo = mid
             else:
                 hi, residual = mid, res
+        closest = "" if np.isnan(residual) else f"the closest is {residual:.3g} off; "
         return Unreachable(
             f"no IK solution within {IK_TOLERANCE:g} m at s={hi:.4f}: the line leaves the "
-            f"workspace there (the closest is {residual:.3g} off; the arm is singular at the edge)",
+            f"workspace there ({closest}the arm is singular at the edge)",
             s=hi,
-            extra={"residual": residual},
+            extra={} if np.isnan(residual) else {"residual": residual},
         )
 
     def check_point(self, s: float, q: np.ndarray) -> PathRates | PlanningError:
@@ -347,6 +388,11 @@ def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None =
             s_cur, h = s_try, min(2.0 * h, h_max)
         if failure is not None:
             break
-    positions = np.array(q_list)
+    positions, s_arr = np.array(q_list), np.array(s_list)
+    if w.label is not None:  # the start's configuration at every walked point (exact)
+        off = np.flatnonzero(np.array(task.robot.configurations(positions)) != w.label)
+        if len(off):
+            failure = label_change(float(s_arr[off[0]]), w.label)
+            positions, s_arr = positions[: off[0]], s_arr[: off[0]]
     rates = path_rates(task.robot, line, positions, deadline=task.deadline)
-    return LineWalk(np.array(s_list), positions, rates, failure, w.ik_calls)
+    return LineWalk(s_arr, positions, rates, failure, w.ik_calls)

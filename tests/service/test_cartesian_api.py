@@ -6,6 +6,7 @@ returned points (``fk_many``), not read from the diagnostics.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -327,3 +328,165 @@ def test_a_200_is_within_tolerance_and_limits_unless_violations_are_allowed(clie
     allowed = client.post(URL, json=_panda_line(allow_violations=True, **extra))
     assert allowed.status_code == 200, allowed.text
     assert allowed.json()["diagnostics"]["warnings"], "an accepted violation is reported"
+
+
+# --- issue 14: lines keep their start's configuration ---------------------------------------------
+
+LABELLED_METHODS = ("sampled", "bounded_deviation", "bounded_deviation_nlp")
+
+
+def planar_ik(x: float, y: float, elbow: float) -> list[float]:
+    """The planar arm's joint positions with its tip at (x, y); ``elbow`` +1 (label down) or -1."""
+    q2 = elbow * math.acos((x * x + y * y - 1.64) / 1.6)
+    q1 = math.atan2(y, x) - math.atan2(0.8 * math.sin(q2), 1.0 + 0.8 * math.cos(q2))
+    return [q1, q2]
+
+
+def rim_s(p0, p1, reach: float = 1.8) -> float:
+    """Analytic s in [0, 1] where |p0 + s (p1 - p0)| = reach (the line leaves the disc)."""
+    p0, d = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float) - np.asarray(p0, dtype=float)
+    a, b, c = d @ d, 2.0 * p0 @ d, p0 @ p0 - reach**2
+    return float((-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a))
+
+
+@pytest.mark.parametrize("method", LABELLED_METHODS)
+@pytest.mark.parametrize("elbow", [1.0, -1.0])
+@pytest.mark.parametrize(
+    ("p0", "p1"),
+    [
+        ((1.0, 0.0), (3.0, 0.0)),
+        ((0.0, 1.0), (0.0, 3.0)),
+        ((0.5, 0.0), (2.1, 0.0)),
+        ((1.0, 0.5), (2.5, 0.5)),
+        ((0.5, 0.5), (2.0, 2.0)),
+    ],
+)
+def test_planar_line_off_the_outer_rim_is_unreachable_where_the_reach_ends(
+    client, method, elbow, p0, p1
+):
+    """Issue 14's defect: a radial line off the rim answered branch_flip (the elbow stretches to
+    q2 = 0, where the labels meet); it is unreachable at the s where |p(s)| = l1 + l2."""
+    request = {
+        "robot": "planar_2r",
+        "start": {"positions": planar_ik(*p0, elbow)},
+        "goal": {"pose": {"position": [*p1, 0.0], "orientation": [0, 0, 0, 1]}},
+        "method": method,
+    }
+    body = problem(client.post(URL, json=request), 422, "unreachable")
+    assert abs(body["s"] - rim_s(p0, p1)) <= 0.01, body
+    assert rim_s(p0, p1) - 1e-3 <= body["s"]  # never before the rim
+
+
+UR5_LABEL_START = np.array(UR5_HOME)
+
+
+def ur5_outward_line(method: str, reach: float) -> dict:
+    """A UR5 line from home, the tool moving ``reach`` [m] outward (-x of the base; home's tool is
+    at x = -0.647 m), its orientation held."""
+    robot = registry.get("ur5")
+    T_goal = robot.fk(UR5_LABEL_START)
+    T_goal[0, 3] -= reach
+    return {
+        "robot": "ur5",
+        "start": {"positions": UR5_HOME},
+        "goal": {"pose": pose_body(T_goal)},
+        "method": method,
+    }
+
+
+def first_unsolvable_s(robot, T0: np.ndarray, reach: float) -> float:
+    """Reference: bisection on s of the first pose of the line without any IK solution (EAIK,
+    verified by FK), independent of the planners."""
+    lo, hi = 0.0, 1.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        T = T0.copy()
+        T[0, 3] -= mid * reach
+        sols = robot.ik_all(T, UR5_LABEL_START)
+        lo, hi = (mid, hi) if len(sols.positions) or sols.outside_limits else (lo, mid)
+    return hi
+
+
+@pytest.mark.parametrize("method", LABELLED_METHODS)
+def test_ur5_line_leaving_the_workspace_is_unreachable_at_its_s(client, method):
+    robot = registry.get("ur5")
+    request = ur5_outward_line(method, 0.8)
+    s_true = first_unsolvable_s(robot, robot.fk(UR5_LABEL_START), 0.8)
+    assert 0.1 < s_true < 0.9
+    body = problem(client.post(URL, json=request), 422, "unreachable")
+    assert abs(body["s"] - s_true) <= 0.01, (body, s_true)
+
+
+class ElbowLosingUR5:
+    """The UR5 whose start configuration's solutions (and only those) cease to exist once the tool
+    passes x = ``x_cut`` [m] outward: a pose there has the other seven labels only, so a line keeping the
+    start's label must flip its branch at the s where it crosses x_cut."""
+
+    def __init__(self, x_cut: float) -> None:
+        self._robot, self._x_cut = registry.get("ur5"), x_cut
+        self._label = self._robot.configuration(UR5_LABEL_START)
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def _cut(self, T: np.ndarray) -> bool:
+        return bool(T[0, 3] < self._x_cut)
+
+    def ik_all(self, T, seed=None, *args, **kwargs):
+        sols = self._robot.ik_all(T, seed, *args, **kwargs)
+        if not self._cut(T):
+            return sols
+        keep = np.array([c != self._label for c in sols.configurations], dtype=bool)
+        labels = tuple(c for c in sols.configurations if c != self._label)
+        return type(sols)(
+            sols.positions[keep], labels, sols.position_errors[keep],
+            sols.orientation_errors[keep], sols.solver, sols.warnings, sols.outside_limits,
+        )  # fmt: skip
+
+    def ik_many(self, Ts, seed, configuration=None):
+        path = self._robot.ik_many(Ts, seed, configuration)
+        kept = np.array([not self._cut(T) for T in Ts]) | (configuration != self._label)
+        return dataclasses.replace(
+            path, found=path.found & kept, within_limits=path.within_limits & kept
+        )
+
+    def ik(self, T, seed, **kwargs):
+        r = self._robot.ik(T, seed, **kwargs)
+        if self._cut(T) and self._robot.configuration(r.positions) == self._label:
+            other = self.ik_all(T, seed).positions[0]  # IK lands on another branch
+            return r._replace(positions=other)
+        return r
+
+
+@pytest.mark.parametrize("method", LABELLED_METHODS)
+def test_ur5_line_that_needs_another_configuration_is_a_branch_flip_at_its_s(
+    client, monkeypatch, method
+):
+    robot = registry.get("ur5")
+    x0 = robot.fk(UR5_LABEL_START)[0, 3]
+    fake = ElbowLosingUR5(x_cut=x0 - 0.06)
+    monkeypatch.setattr(registry, "resolve", lambda ref: fake)
+    body = problem(client.post(URL, json=ur5_outward_line(method, 0.1)), 422, "branch_flip")
+    assert abs(body["s"] - 0.6) <= 0.01, body
+    assert f"than the start's ({fake._label})" in body["detail"], body
+
+
+@pytest.mark.parametrize("method", LABELLED_METHODS)
+def test_goal_positions_in_another_configuration_are_named_in_the_warning(client, method):
+    """goal.positions on another label than the start's: the line keeps the start's and ends on
+    the start label's solution of the goal pose (FK equal to the goal pose, label the start's)."""
+    robot = registry.get("ur5")
+    start = robot.configuration(np.array(UR5_HOME))
+    T_goal = robot.fk(np.array(UR5_GOAL))
+    sols = robot.ik_all(T_goal, np.array(UR5_GOAL))
+    other = next(q for q, c in zip(sols.positions, sols.configurations, strict=True) if c != start)
+    request = {**UR5_LINE, "goal": {"positions": other.tolist()}, "method": method}
+    response = client.post(URL, json=request)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    note = f"goal.positions are {robot.configuration(other)}, the line keeps the start's {start}"
+    warnings = body["diagnostics"]["warnings"]
+    assert any(note in w for w in warnings), warnings
+    end = np.array(body["points"][-1]["positions"])
+    assert robot.configuration(end) == start
+    assert np.abs(robot.fk(end) - T_goal).max() <= 1e-6

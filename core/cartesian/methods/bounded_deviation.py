@@ -53,6 +53,7 @@ def taylor_knots(
     stats = TaylorStats() if stats is None else stats
     tol_p, tol_o = MARGIN * position_tolerance, MARGIN * orientation_tolerance
     found: list[tuple[float, np.ndarray]] = []
+    label = kin.configuration(np.asarray(q_start, dtype=float))  # midpoints keep the start's
 
     def split(sa: float, qa: np.ndarray, sb: float, qb: np.ndarray, depth: int) -> None:
         deadline.check("bounded deviation")
@@ -70,7 +71,7 @@ def taylor_knots(
                 s=s_mid,
                 extra={"depth": depth},
             )
-        q_new = solve_on_line(kin, line, s_mid, q_mid, reference_at(reference, s_mid))
+        q_new = solve_on_line(kin, line, s_mid, q_mid, reference_at(reference, s_mid), label=label)
         stats.ik_calls += 1
         split(sa, qa, s_mid, q_new, depth + 1)
         found.append((s_mid, q_new))

@@ -1,6 +1,7 @@
 """The notes' first Cartesian method, ``sampled``: IK at points along the line, every point checked.
 
-``core.cartesian.walk`` walks the line; ``plan_sampled`` times the walked path with
+``core.cartesian.walk`` walks the line (``core.cartesian.walk_batch`` first tries it in one batch,
+for arms with configuration labels); ``plan_sampled`` times the walked path with
 ``core.cartesian.timing.time_path``, places the returned points (IK at each, seeded from the walk and
 checked to be on its branch; many points at once by batched Newton steps, ``_batch_solve``), and
 returns the planned prefix with ``fraction`` < 1 when ``allow_partial`` is set.
@@ -14,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from core.cartesian.check import finish
-from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows
+from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
 from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
@@ -32,6 +33,7 @@ from core.cartesian.walk import (
     Walker,
     walk_line,
 )
+from core.cartesian.walk_batch import batch_walk
 from core.errors import (
     PlanningError,
     Singularity,
@@ -164,7 +166,7 @@ def _batch_chunk(
 def plan_sampled(task: CartesianTask) -> CartesianResult:
     """Plan ``task`` by sampled IK along the line (see the module docstring)."""
     line = validated_line(task)
-    walk = walk_line(task, line)
+    walk = batch_walk(task, line) or walk_line(task, line)
     failure, attempts = walk.failure, 0
     while True:
         if failure is not None and (not task.allow_partial or walk.end <= MIN_STEP):
@@ -252,8 +254,9 @@ def _timed_result(
         elif gap > GOAL_BRANCH_WARNING:
             warnings.append(
                 f"the line ends at the goal pose in another joint configuration than "
-                f"goal.positions (up to {gap:.3g} rad apart); the trajectory ends where the line "
-                "leads, without a branch flip"
+                f"goal.positions (up to {gap:.3g} rad apart"
+                f"{label_note(robot, task.q_start, task.q_goal)}); the trajectory ends where the "
+                "line leads, without a branch flip"
             )
     result = CartesianResult(
         trajectory=traj,
