@@ -570,3 +570,17 @@ def test_resolved_rate_dls_moves_the_elbow_around_a_ball(client) -> None:
     y_avoid = [PANDA.frame_pose(q, "panda_link4")[1, 3] for q in qs]
     assert max(abs(y) for y in y_free) < 1e-6
     assert min(y_avoid) < -0.005 and max(y_avoid) < 1e-6
+
+
+def test_dls_avoidance_needs_osqp(client) -> None:
+    body = lin_body([0.0, 0.1, 0.0], method="resolved_rate_dls", environment={"obstacles": []})
+    assert client.post("/v1/trajectories/cartesian", json=body).status_code == 200
+    err = problem(
+        client.post("/v1/trajectories/cartesian", json={**body, "solver": "daqp"}),
+        422,
+        "validation",
+    )
+    assert err["errors"][0]["loc"] == ["body", "solver"]
+    # without an environment any solver plans as before
+    free = {**body, "solver": "daqp", "environment": None}
+    assert client.post("/v1/trajectories/cartesian", json=free).status_code == 200
