@@ -241,10 +241,17 @@ class CollisionChecker:
         )
         self._weights = self._motion_weights()
         self._prepare_entries()
+        self._coal: tuple[Any, ...] | None = None  # damper_inputs' workspace, built on first use
 
     @property
     def n_pairs(self) -> int:
         return len(self.pair_names)
+
+    @property
+    def motion_weights(self) -> np.ndarray:
+        """``core.clearance.Clearance.motion_weights``: ``(P, dof)``, a pair's distance changes by
+        at most ``motion_weights @ |dq|`` [m] over a linear joint step ``dq``."""
+        return self._weights
 
     # motion bound ------------------------------------------------------------------------------
     def _motion_weights(self) -> np.ndarray:
@@ -635,6 +642,25 @@ class CollisionChecker:
         return rows[:limit]
 
 
+def link_shapes(
+    robot: Robot, geometry: RobotCollision
+) -> list[tuple[str, float, float, np.ndarray]]:
+    """Each capsule as ``(link, radius [m], length [m], T_link_shape (4, 4))``: the shape's centre and
+    its z axis along the segment, in the frame of ``link`` (the inverse of ``_attach``); length 0 is a
+    sphere. The form of ``collision_geometry`` in a robot's description."""
+    model = robot.model
+    rows = []
+    for i, link in enumerate(geometry.links):
+        M_inv = model.frames[model.getFrameId(link)].placement.inverse()
+        a, b = M_inv.act(geometry.a[i]), M_inv.act(geometry.b[i])
+        length = float(np.linalg.norm(b - a))
+        z = (b - a) / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = _frame_with_z(z), (a + b) / 2
+        rows.append((link, float(geometry.radius[i]), length if length > 1e-12 else 0.0, T))
+    return rows
+
+
 def _frame_with_z(z: np.ndarray) -> np.ndarray:
     """A rotation whose third column is the unit vector ``z``."""
     x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
@@ -723,11 +749,13 @@ def damper_inputs(check: CollisionChecker, q: np.ndarray, d_influence: float) ->
     robot = check.robot
     model = robot.model
     q = np.asarray(q, dtype=float)
-    gm, _, pairs = check._geometry_model()
-    data, gdata = pin.Data(model), pin.GeometryData(gm)
+    if check._coal is None:  # one coal workspace per checker: a control loop calls this per tick
+        gm, _, pairs = check._geometry_model()
+        index = {(cp.first, cp.second): k for k, cp in enumerate(gm.collisionPairs)}
+        check._coal = (gm, pairs, index, pin.Data(model), pin.GeometryData(gm))
+    gm, pairs, index, data, gdata = check._coal
     pin.computeDistances(model, data, gm, gdata, q)
     pin.computeJointJacobians(model, data, q)
-    index = {(cp.first, cp.second): k for k, cp in enumerate(gm.collisionPairs)}
     R = check._T_base_world[:3, :3]
     rows, dist, normals, jacs = [], [], [], []
 

@@ -45,6 +45,7 @@ from core.cartesian.knot_nlp_derivatives import derivatives
 from core.cartesian.knot_path import KnotPath, Knots
 from core.cartesian.knots import MARGIN
 from core.cartesian.measure import dense_times
+from core.clearance import stacked_rows
 from core.geometry import so3
 from core.kinematics import Kinematics
 from core.path.arc import Arc
@@ -273,6 +274,7 @@ def build_knot_nlp(
     cost: str = "smoothness",
     max_iter: int = NLP_MAX_ITER,
     max_wall_time: float = NLP_MAX_WALL_TIME,
+    clearance_rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> KnotNLP:
     """Build (not solve) the knot NLP of the module docstring for knots at ``s_knots`` (K >= 3).
 
@@ -284,9 +286,12 @@ def build_knot_nlp(
         checks: Interior check points per knot segment.
         cost: ``"smoothness"`` or ``"length"``.
         max_iter: IPOPT iteration cap; max_wall_time: IPOPT wall-time cap [s].
+        clearance_rows: ``(check, G, lb)`` of ``core.clearance.linearized_clearance_rows`` at the
+            configurations of the check points ``check_points(s_knots, checks)``: linear rows
+            ``G[i] . q(sigma_check[i]) >= lb[i]`` (the avoidance of obstacles, one SQP round).
     """
     k, dof = len(s_knots), kin.dof
-    sigma = dense_times(s_knots, checks)[1:-1]  # the ends are fixed on the line
+    sigma = check_points(s_knots, checks)  # the ends are fixed on the line
     m = len(sigma)
     inner = ca.MX.sym("knots", dof, k - 2)
     moments = ca.MX.sym("moments", dof, k)  # d2q/ds2 at the knots
@@ -303,6 +308,9 @@ def build_knot_nlp(
     x = ca.vertcat(ca.vec(inner), ca.vec(moments))
     f = ca.sumsqr(diff)
     linear = ca.vertcat(ca.vec(spline), ca.vec(Qc))
+    rows, lb_rows = stacked_rows(clearance_rows, m, dof)
+    if rows is not None:
+        linear = ca.vertcat(linear, ca.DM(rows) @ ca.vec(Qc))
     options = {
         **IPOPT_OPTIONS,
         "ipopt.max_iter": int(max_iter),
@@ -322,10 +330,17 @@ def build_knot_nlp(
         last=np.asarray(last, dtype=float),
         lbx=np.concatenate([np.tile(lo, k - 2), np.full(dof * k, -np.inf)]),
         ubx=np.concatenate([np.tile(hi, k - 2), np.full(dof * k, np.inf)]),
-        lbg=np.concatenate([np.full(n_dev, -np.inf), np.zeros(dof * k), np.tile(lo, m)]),
-        ubg=np.concatenate([np.ones(n_dev), np.zeros(dof * k), np.tile(hi, m)]),
+        lbg=np.concatenate([np.full(n_dev, -np.inf), np.zeros(dof * k), np.tile(lo, m), lb_rows]),
+        ubg=np.concatenate(
+            [np.ones(n_dev), np.zeros(dof * k), np.tile(hi, m), np.full(len(lb_rows), np.inf)]
+        ),
         checks=sigma,
     )
+
+
+def check_points(s_knots: np.ndarray, checks: int = NLP_CHECKS) -> np.ndarray:
+    """Path parameters of the NLP's check points (``KnotNLP.checks``) for knots at ``s_knots``."""
+    return dense_times(np.asarray(s_knots, dtype=float), checks)[1:-1]
 
 
 class KnotSolution(NamedTuple):

@@ -14,6 +14,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.measure import DeviationReport
+from core.clearance import Clearance
 from core.kinematics import Kinematics
 from core.path import Path, build_path
 from core.trajectory import Trajectory
@@ -65,6 +66,8 @@ class CartesianTask:
         speed_profile: ``"trapezoidal"`` or ``"s_curve"`` (``SPEED_PROFILES``).
         max_linear_jerk: Tool jerk limit [m/s^3] of the s-curve (None: its default).
         max_angular_jerk: Tool angular jerk limit [rad/s^3] of the s-curve (None: its default).
+        clearance: The environment's distances (obstacles, self-collision), for the methods that
+            avoid collisions (``bounded_deviation_nlp``, ``resolved_rate_dls``); None: no avoidance.
     """
 
     robot: Kinematics
@@ -87,6 +90,7 @@ class CartesianTask:
     speed_profile: str = "trapezoidal"
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
+    clearance: Clearance | None = None
 
     def line(self) -> Path:
         """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);

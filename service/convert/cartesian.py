@@ -24,6 +24,7 @@ from core.cartesian.task import CartesianResult, CartesianTask, PathSpec
 from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
+from service import environment
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
 from service.schemas.cartesian import CartesianTaskSpec
 
@@ -69,6 +70,7 @@ def task_from_spec(
     robot: Kinematics,
     deadline: Deadline,
     max_points: int = MAX_POINTS,
+    environment_field: tuple[str | int, ...] = ("environment",),
 ) -> CartesianTask:
     """The core task of a request (any method): lengths and limits of the joint positions checked.
 
@@ -77,6 +79,7 @@ def task_from_spec(
         robot: The resolved robot (``robots.registry.resolve(spec.robot)``).
         deadline: Wall-time budget of the planning.
         max_points: Most points of a response (``samples`` over it is 422 ``too_large``).
+        environment_field: Where ``spec.environment`` sits in the request (validation errors).
     """
     q_start = _joint_positions(robot, spec.start.positions, "start")
     q_goal = None
@@ -92,6 +95,10 @@ def task_from_spec(
             f"samples={spec.samples} exceeds the limit of {max_points} points", field=("samples",)
         )
     same_named = {name: getattr(spec, name) for name in _SAME_NAMED}
+    clearance = None  # the environment's checker, for the methods that avoid obstacles
+    if spec.environment is not None:
+        urdf = environment.inline_urdf(spec.robot)
+        clearance = environment.checker(robot, spec.environment, urdf, environment_field)  # type: ignore[arg-type]
     shape = spec.path
     path = PathSpec(
         kind=shape.type,
@@ -107,6 +114,7 @@ def task_from_spec(
         position_tolerance=spec.tolerance.position,
         orientation_tolerance=spec.tolerance.orientation,
         deadline=deadline,
+        clearance=clearance,
         **same_named,
     )
     task.line()  # bad circle geometry: 422 validation at path.* before any method runs

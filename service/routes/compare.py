@@ -48,7 +48,9 @@ def compare(
     robot = registry.resolve(body.task.robot)
     methods = body.methods or list(METHODS)
     deadline = Deadline(settings.time_budget_s)  # one budget for the whole request
-    task = convert.task_from_spec(body.task, robot, deadline, settings.max_points)
+    task = convert.task_from_spec(
+        body.task, robot, deadline, settings.max_points, environment_field=("task", "environment")
+    )
     rows = []
     for method in methods:
         started = time.perf_counter()

@@ -10,10 +10,13 @@ from fastapi import APIRouter, Path
 from core.errors import InputError, JointLimit, Unreachable
 from robots import ik as robot_ik
 from robots import registry
+from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
+from service import environment
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
+    CollisionShape,
     DescribeRequest,
     FKRequest,
     FKResponse,
@@ -68,7 +71,28 @@ def list_robots() -> list[dict]:
     return [_summary(registry.get(name)) for name in registry.names()]
 
 
-def _detail(robot: Robot) -> RobotDetail:
+def _collision(robot: Robot, urdf: str | None) -> dict:
+    """``collision_geometry`` and ``allowed_self_collisions`` (``robots.collision``)."""
+    geometry, allowed = robot_setup(robot, urdf)
+    shapes = [
+        CollisionShape(
+            link=link,
+            shape=(
+                {"type": "capsule", "radius": radius, "length": length}
+                if length > 0
+                else {"type": "sphere", "radius": radius}
+            ),
+            origin=Pose.from_matrix(T),
+        )
+        for link, radius, length, T in link_shapes(robot, geometry)
+    ]
+    return {
+        "collision_geometry": shapes,
+        "allowed_self_collisions": sorted(sorted(p) for p in allowed),
+    }
+
+
+def _detail(robot: Robot, urdf: str | None = None) -> RobotDetail:
     return RobotDetail(
         **_summary(robot),
         limits=RobotLimits(
@@ -85,6 +109,7 @@ def _detail(robot: Robot) -> RobotDetail:
             redundant_joints=list(robot.redundant_joints),
         ),
         configurations=list(robot.configuration_labels),
+        **_collision(robot, urdf),
     )
 
 
@@ -97,7 +122,7 @@ def _detail(robot: Robot) -> RobotDetail:
     summary="The description of any robot, inline URDF models included",
 )
 def describe_robot(body: DescribeRequest) -> RobotDetail:
-    return _detail(registry.resolve(body.robot))
+    return _detail(registry.resolve(body.robot), environment.inline_urdf(body.robot))
 
 
 @router.get(

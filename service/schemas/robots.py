@@ -7,6 +7,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, Field, StringConstraints
 
 from service.schemas.common import JointPositions, Pose, Position, RobotRef, StrictModel
+from service.schemas.environment import CapsuleShape, Sphere
 
 NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
 FrameName = Field(
@@ -54,6 +55,15 @@ class IKInfo(BaseModel):
     )
 
 
+class CollisionShape(BaseModel):
+    link: str = Field(description="The link the shape is fixed to.")
+    shape: CapsuleShape | Sphere = Field(
+        description="Same shape objects as obstacles: a capsule (radius, length between the "
+        "hemisphere centres, along the shape's z axis, centred) or a sphere [m]."
+    )
+    origin: Pose = Field(description="Pose of the shape's centre in the link frame [m].")
+
+
 class RobotDetail(RobotSummary):
     limits: RobotLimits
     home: list[float] = Field(description="A configuration away from singularities [rad or m].")
@@ -64,6 +74,15 @@ class RobotDetail(RobotSummary):
     configurations: list[str] = Field(
         description="Every configuration label this robot's IK solutions can carry (docs/robots.md, "
         '"Configurations"); empty for robots without labels.'
+    )
+    collision_geometry: list[CollisionShape] = Field(
+        default_factory=list,
+        description="The shapes every collision check uses (place them with FK frames: true).",
+    )
+    allowed_self_collisions: list[list[str]] = Field(
+        default_factory=list,
+        description="Link pairs never checked against each other (adjacent, or never/always touching "
+        "within the limits), each pair sorted, sorted.",
     )
 
 

@@ -288,11 +288,11 @@ def test_velocity_damper_rows() -> None:
     rows = velocity_damper_rows(d, n, Jp, dt=0.01, d_safe=0.01, d_influence=0.1, xi=0.5)
     assert rows.active.tolist() == [True, False, True]
     assert rows.G == pytest.approx(-np.stack([n[0] @ Jp[0], n[2] @ Jp[2]]), abs=1e-15)
-    assert rows.h == pytest.approx(0.5 * (d[[0, 2]] - 0.01) / 0.09 / 0.01, abs=1e-12)
+    assert rows.h == pytest.approx(0.5 * (d[[0, 2]] - 0.01) / 0.01, abs=1e-12)
     # a velocity on the boundary of the row closes exactly the allowed share of the margin
     qd = np.linalg.pinv(rows.G[:1]) @ rows.h[:1]
     approach = -(n[0] @ Jp[0] @ qd) * 0.01
-    assert approach == pytest.approx(0.5 * (0.05 - 0.01) / 0.09, abs=1e-12)
+    assert approach == pytest.approx(0.5 * (0.05 - 0.01), abs=1e-12)
     with pytest.raises(ValueError):
         velocity_damper_rows(d, n, Jp, dt=0.01, d_safe=0.1, d_influence=0.1)
 

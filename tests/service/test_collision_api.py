@@ -412,3 +412,175 @@ def test_program_collision_names_its_segment_and_s(client) -> None:
     assert doc["diagnostics"]["failure"]["segment"] == 1
     a, b, r = tool_capsule(doc["points"][-1]["positions"])
     assert point_segment(center, a, b) - r - R >= 0
+
+
+def shape_ends(entry: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The hemisphere centres of a described shape, in its link frame (origin +- length/2 along z)."""
+    T = Pose(**entry["origin"]).as_matrix()
+    half = entry["shape"].get("length", 0.0) / 2
+    return T[:3, 3] - half * T[:3, 2], T[:3, 3] + half * T[:3, 2]
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "puma560"])
+def test_robot_description_carries_the_collision_geometry(client, name: str) -> None:
+    """GET /v1/robots/{name}: one shape per capsule of ``robots.geometry``, same link, radius and
+    segment (link frame), in order; the allowed pairs are those of ``collision_description``."""
+    doc = client.get(f"/v1/robots/{name}").json()
+    capsules = ROBOT_GEOMETRY[name].capsules
+    assert len(doc["collision_geometry"]) == len(capsules)
+    for entry, c in zip(doc["collision_geometry"], capsules, strict=True):
+        assert entry["link"] == c.link and entry["shape"]["radius"] == c.radius
+        p, q = shape_ends(entry)
+        a, b = np.array(c.a), np.array(c.b)
+        assert entry["shape"]["type"] == ("sphere" if np.allclose(a, b, atol=1e-12) else "capsule")
+        np.testing.assert_allclose(p, a, atol=1e-9)
+        np.testing.assert_allclose(q, b, atol=1e-9)
+    allowed = collision_description(name)["allowed_self_collisions"]
+    assert doc["allowed_self_collisions"] == allowed
+    assert all(pair == sorted(pair) for pair in allowed)
+    same = client.post("/v1/robots/describe", json={"robot": name}).json()
+    assert same["collision_geometry"] == doc["collision_geometry"]
+
+
+def test_inline_description_encloses_the_urdf_primitives(client) -> None:
+    """POST /v1/robots/describe with an inline URDF: the box of l1 (origin x = 0.25, 0.5 long) is
+    enclosed by a capsule along x through the box's centre; a sphere stays a sphere at its origin."""
+    urdf = """<robot name="arm">
+      <link name="base"/>
+      <link name="l1"><collision><origin xyz="0.25 0 0"/><geometry><box size="0.5 0.06 0.06"/>
+        </geometry></collision></link>
+      <link name="l2"><collision><origin xyz="0.1 0.02 0"/><geometry><sphere radius="0.04"/>
+        </geometry></collision></link>
+      <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+        <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+      <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+        <origin xyz="0.5 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+    </robot>"""
+    robot = {"urdf": urdf, "tip_frame": "l2", "base_frame": "base"}
+    doc = client.post("/v1/robots/describe", json={"robot": robot}).json()
+    box, sphere = doc["collision_geometry"]
+    assert box["link"] == "l1" and box["shape"]["type"] == "capsule"
+    p, q = shape_ends(box)
+    assert abs(p[1]) < 1e-12 and abs(p[2]) < 1e-12 and abs(q[1]) < 1e-12 and abs(q[2]) < 1e-12
+    np.testing.assert_allclose((p + q) / 2, [0.25, 0.0, 0.0], atol=1e-12)
+    # enclosing: the capsule covers the box's corners (and its end faces' corners)
+    r = box["shape"]["radius"]
+    for x in (0.0, 0.5):
+        corner = np.array([x, 0.03, 0.03])
+        assert point_segment(corner, p, q) <= r + 1e-12
+    assert sphere["link"] == "l2" and sphere["shape"] == {"type": "sphere", "radius": 0.04}
+    np.testing.assert_allclose(sphere["origin"]["position"], [0.1, 0.02, 0.0], atol=1e-12)
+    assert doc["allowed_self_collisions"] == [["l1", "l2"]]
+
+
+def test_bounded_deviation_nlp_uses_the_tolerance_band_to_pass_a_ball(client) -> None:
+    """A ball that the straight line's tool capsule touches (1 mm into it at mid-line): the sampled
+    line is 422 collision; the NLP bends the path within the 20 mm band and keeps the clearance,
+    measured on the returned points by an independent closed form (ball centre to tool segment)."""
+    off = np.array([0.0, 0.3, 0.0])
+    a, b, r = tool_capsule(UR5.home)
+    R, clearance = 0.05, 0.005
+    center = (a + b) / 2 + off / 2 + np.array([-(R + r - 0.001), 0.0, 0.0])
+    env = {"obstacles": [ball("ball", center, R)], "clearance": clearance}
+    tol = {"position": 0.02, "orientation": 0.01}
+    # the straight line: the tool segment passes 1 mm inside the ball's surface (plus the radius)
+    straight = point_segment(center, a + off / 2, b + off / 2) - R - r
+    assert abs(straight + 0.001) < 1e-9
+    err = problem(
+        client.post(
+            "/v1/trajectories/cartesian",
+            json=lin_body(off, method="sampled", environment=env, tolerance=tol),
+        ),
+        422,
+        "collision",
+    )
+    assert "ball" in err["links"]
+    res = client.post(
+        "/v1/trajectories/cartesian",
+        json=lin_body(off, method="bounded_deviation_nlp", environment=env, tolerance=tol),
+    )
+    assert res.status_code == 200, res.json()
+    doc = res.json()
+    diag = doc["diagnostics"]
+    assert diag["min_clearance"] >= clearance
+    assert diag["max_position_deviation"] <= tol["position"]
+    qs = np.array([p["positions"] for p in doc["points"]])
+    tool = np.array([point_segment(center, *tool_capsule(q)[:2]) for q in qs]) - R - r
+    assert tool.min() >= clearance - 1e-9
+    assert tool.min() < clearance + 0.01  # it passes close: the band is used, not a detour
+
+
+PANDA = registry.get("panda")
+
+
+def panda_capsules_world(q) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
+    """Every Panda capsule in the base frame, placed by pinocchio's frame poses."""
+    out = []
+    for c in ROBOT_GEOMETRY["panda"].capsules:
+        T = PANDA.frame_pose(np.asarray(q), c.link)
+        out.append((c.link, T[:3, :3] @ c.a + T[:3, 3], T[:3, :3] @ c.b + T[:3, 3], c.radius))
+    return out
+
+
+def test_resolved_rate_dls_moves_the_elbow_around_a_ball(client) -> None:
+    """A Panda LIN (+0.2 m in x, 2 s) whose elbow (panda_link4) would pass 2 mm from a ball with a
+    10 mm clearance: sampled is 422 collision; with DLS the velocity dampers keep the clearance
+    (closed-form ball-to-capsule distances on the returned points), the tool stays on the line
+    within 1 mm, and the elbow leaves the plane it moves in without the ball (null-space motion)."""
+    T0 = PANDA.fk(PANDA.home)
+    T1 = T0.copy()
+    T1[:3, 3] += [0.2, 0.0, 0.0]
+    center, R, clearance = np.array([-0.07, 0.172, 0.652]), 0.05, 0.01
+    body = {
+        "robot": "panda",
+        "start": {"positions": PANDA.home.tolist()},
+        "goal": {"pose": Pose.from_matrix(T1).model_dump()},
+        "duration": 2.0,
+        "tolerance": {"position": 1e-3, "orientation": 1e-2},
+        "environment": {"obstacles": [ball("ball", center, R)], "clearance": clearance},
+    }
+    err = problem(
+        client.post("/v1/trajectories/cartesian", json={**body, "method": "sampled"}),
+        422,
+        "collision",
+    )
+    assert err["links"] == ["panda_link4", "ball"]
+    res = client.post("/v1/trajectories/cartesian", json={**body, "method": "resolved_rate_dls"})
+    assert res.status_code == 200, res.json()
+    doc = res.json()
+    assert doc["diagnostics"]["min_clearance"] >= clearance
+    qs = np.array([p["positions"] for p in doc["points"]])
+    gaps = [
+        point_segment(center, a, b) - r - R for q in qs for _, a, b, r in panda_capsules_world(q)
+    ]
+    assert min(gaps) >= clearance
+    # the tool on the line (independent: FK of the returned points against the segment)
+    p0, p1 = T0[:3, 3], T1[:3, 3]
+    off_line = [point_segment(PANDA.fk(q)[:3, 3], p0, p1) for q in qs]
+    assert max(off_line) <= 1e-3
+    np.testing.assert_allclose(PANDA.fk(qs[-1])[:3, 3], p1, atol=1e-3)
+    # the elbow: in the plane y = 0 without the ball (the arm's symmetry), away from it with it
+    free = client.post(
+        "/v1/trajectories/cartesian",
+        json={**body, "method": "resolved_rate_dls", "environment": None},
+    ).json()
+    y_free = [
+        PANDA.frame_pose(np.array(p["positions"]), "panda_link4")[1, 3] for p in free["points"]
+    ]
+    y_avoid = [PANDA.frame_pose(q, "panda_link4")[1, 3] for q in qs]
+    assert max(abs(y) for y in y_free) < 1e-6
+    assert min(y_avoid) < -0.005 and max(y_avoid) < 1e-6
+
+
+def test_dls_avoidance_needs_osqp(client) -> None:
+    body = lin_body([0.0, 0.1, 0.0], method="resolved_rate_dls", environment={"obstacles": []})
+    assert client.post("/v1/trajectories/cartesian", json=body).status_code == 200
+    err = problem(
+        client.post("/v1/trajectories/cartesian", json={**body, "solver": "daqp"}),
+        422,
+        "validation",
+    )
+    assert err["errors"][0]["loc"] == ["body", "solver"]
+    # without an environment any solver plans as before
+    free = {**body, "solver": "daqp", "environment": None}
+    assert client.post("/v1/trajectories/cartesian", json=free).status_code == 200

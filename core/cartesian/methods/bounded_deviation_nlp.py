@@ -37,6 +37,7 @@ from core.cartesian.knot_nlp import (
     SYMBOLIC_LOCK,
     TIME_STATUSES,
     build_knot_nlp,
+    check_points,
     deviation_function,
     knot_parameters,
     solve_knot_nlp,
@@ -55,6 +56,7 @@ from core.cartesian.methods.bounded_deviation import taylor_knots
 from core.cartesian.partial import plan_partial
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.cartesian.validate import validated_line
+from core.clearance import CLEARANCE_MARGIN, clearance_ok, linearized_clearance_rows
 from core.errors import (
     InputError,
     NoConvergence,
@@ -62,6 +64,12 @@ from core.errors import (
 )
 from core.kinematics import SymbolicKinematics
 from core.path.line import StraightLine
+
+AVOID_ROUNDS = 6
+"""SQP rounds per knot count when avoiding obstacles (clearance relinearized at each solution)."""
+AVOID_MIN_KNOTS = 9
+"""With an environment the knot-count search goes up to at least this many knots (Taylor's count
+ignores obstacles)."""
 
 
 def plan_bounded_deviation_nlp(
@@ -167,6 +175,8 @@ class _KnotSearch:
     def run(self) -> Knots:
         """Galloping up from 3 knots (x1.5) to the first accepted count, then bisection below it."""
         best, lo, hi = self.taylor, 2, len(self.taylor)
+        if self.task.clearance is not None:  # Taylor's knots ignore obstacles: try more knots
+            hi = max(hi, AVOID_MIN_KNOTS)
         straight = Knots(np.array([0.0, 1.0]), self.taylor.positions[[0, -1]])
         if hi > 2 and self._within(straight):  # joint interpolation alone keeps the bound
             self.attempts.append(
@@ -219,21 +229,32 @@ class _KnotSearch:
         if budget <= 0.0:
             return None, "Maximum_WallTime_Exceeded"
         s = knot_parameters(count, self.taylor.s)
-        with SYMBOLIC_LOCK:
-            problem = build_knot_nlp(
-                self.deviation,
-                task.robot,
-                s,
-                best.positions[0],
-                best.positions[-1],
-                checks=self.checks,
-                cost=self.cost,
-                max_iter=self.max_iter,
-                max_wall_time=budget,
-            )
-        sol = solve_knot_nlp(problem, KnotPath(best)(s))
-        knots = Knots(s, sol.positions)
-        ok = self._within(knots)  # IPOPT's optimality is not needed, feasibility is
+        start, rows = KnotPath(best)(s), None
+        rounds = 0
+        for _ in range(AVOID_ROUNDS if task.clearance is not None else 1):
+            rounds += 1
+            if task.clearance is not None:  # SQP round: clearance linearized about ``start``
+                q_checks = KnotPath(Knots(s, start))(check_points(s, self.checks))
+                rows = linearized_clearance_rows(task.clearance, q_checks)
+            with SYMBOLIC_LOCK:
+                problem = build_knot_nlp(
+                    self.deviation,
+                    task.robot,
+                    s,
+                    best.positions[0],
+                    best.positions[-1],
+                    checks=self.checks,
+                    cost=self.cost,
+                    max_iter=self.max_iter,
+                    max_wall_time=budget,
+                    clearance_rows=rows,
+                )
+            sol = solve_knot_nlp(problem, start)
+            knots = Knots(s, sol.positions)
+            ok = self._within(knots)  # IPOPT's optimality is not needed, feasibility is
+            if ok or sol.status in TIME_STATUSES or task.deadline.expired():
+                break
+            start = sol.positions
         self.attempts.append(
             {
                 "knots": count,
@@ -241,6 +262,7 @@ class _KnotSearch:
                 "iterations": sol.iterations,
                 "solve_time_s": sol.solve_time,
                 "accepted": ok,
+                **({"clearance_rounds": rounds} if task.clearance is not None else {}),
             }
         )
         if sol.status in TIME_STATUSES and task.deadline.expired():
@@ -260,4 +282,5 @@ class _KnotSearch:
             dev.position.max() <= ACCEPT * task.position_tolerance
             and dev.orientation.max() <= ACCEPT * task.orientation_tolerance
             and bool(inside(q, kin.position_limits).all())
+            and (task.clearance is None or clearance_ok(task.clearance, q, CLEARANCE_MARGIN / 4))
         )
