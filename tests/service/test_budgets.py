@@ -77,10 +77,12 @@ NEXT = {
 
 SLOW_REQUESTS = {
     "sampled_100k_points": {**UR5_LINE, "method": "sampled", "samples": 100_000},
+    # 1e-6 (about 26 s of knot search unbounded): 1e-5 became fast enough (~1.5 s with warm
+    # CasADi caches) to finish within the 2 s budget, so it no longer tested the budget
     "nlp_panda_5000_checks_tight": {
         **PANDA_LINE,
         "method": "bounded_deviation_nlp",
-        "tolerance": {"position": 1e-5, "orientation": 1e-5},
+        "tolerance": TIGHT,
         "samples": 5000,
     },
     "rate_control_period_1e-4_40s": {
