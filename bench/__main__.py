@@ -3,7 +3,9 @@ run, alternating, with medians, p95 and ratios (see ``bench/RESULTS.md``).
 
 - P1 quintic (``bench.joint``), P2 spline (``bench.joint``), P3 Cartesian line with IK and P4 bounded
   deviation (``bench.cartesian``), P5 resolved-rate tick and 1,000-tick run (``bench.rate``, on
-  ``bench.rate_tick``), P6 HTTP under load (``bench.http_load``).
+  ``bench.rate_tick``), P6 HTTP under load (``bench.http_load``), I1/I2 every IK solution and a
+  labelled line (``bench.ik``), C1/C2 continuous collision checks (``bench.collision``); the motion
+  programs' P7 is ``python -m bench.program``.
 - ``--quick`` (CI): short rounds, fewer ticks and requests; exits non-zero only on an error (ours
   raising, a peer raising once installed, a non-200 answer), never on a timing. Peers that are not
   installed are printed as ``unavailable``.
@@ -42,7 +44,7 @@ PACKAGES = (
     "orjson", "httpx", "roboticstoolbox-python", "spatialmath-python", "pin-pink", "daqp",
     "toppra", "ruckig",
 )  # fmt: skip
-TASKS = ("P1", "P2", "P3", "P4", "P5", "P6")
+TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2")
 
 
 def versions() -> str:
@@ -76,15 +78,15 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
     """Run the tables of ``tasks``; ``emit`` each as it finishes. Returns (tables, errors)."""
     import httpx
 
-    from bench import cartesian, http_load, joint, rate
+    from bench import cartesian, collision, http_load, ik, joint, rate
 
     budget: Budget = QUICK if quick else FULL
     tables, errors = [], []
 
-    def do(make, *args) -> None:
+    def do(make, *args, measured: bool = False) -> None:
         try:
             table = make(*args)
-            if hasattr(table, "rows"):
+            if hasattr(table, "rows") and not measured:
                 measure(table, budget)
         except Exception as e:
             errors.append(f"{getattr(make, '__name__', make)}{args[:1]}: {type(e).__name__}: {e}")
@@ -114,6 +116,14 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
                     do(rate.p5_tick, name, 200 if quick else 1000)
                 for name in ("ur5", "panda"):
                     do(rate.p5_run, name, client, url)
+    if "I1" in tasks:
+        do(ik.i1_all_solutions)
+    if "I2" in tasks:
+        do(ik.i2_line)
+    if "C1" in tasks:
+        do(collision.c1_check, budget, measured=True)
+    if "C2" in tasks:
+        do(collision.c2_line, budget, measured=True)
     if "P6" in tasks:
         requests, seconds = (400, 10.0) if quick else (20_000, 30.0)
         do(http_load.p6_http, requests, seconds, budget, measure)
