@@ -324,18 +324,7 @@ def ik_many(
     analytic = robot.analytic_ik
     if analytic is None or analytic.held is not None or label is None:
         return _ik_many_numeric(robot, Ts, seed, label)
-    rows = analytic.solve_many(Ts)
-    counts = np.array([len(r) for r in rows])
-    Q = np.concatenate(rows) if counts.sum() else np.zeros((0, dof))
-    owner = np.repeat(np.arange(n), counts)
-    pe, oe = pose_errors_many(robot, Q, Ts[owner])
-    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
-    fix = ~good & (pe < POLISH_BELOW)
-    if fix.any():  # rare: EAIK's least-squares answers at singular poses
-        for i in np.flatnonzero(fix):
-            Q[i] = _polish(robot, Ts[owner[i]], Q[i : i + 1], {})[0]
-        pe, oe = pose_errors_many(robot, Q, Ts[owner])
-        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    Q, owner, good = _analytic_verified(robot, analytic, Ts)
     labels = np.array(robot.configurations(Q), dtype=object) if len(Q) else np.zeros(0, object)
     match = good & (labels == label)
     found = np.zeros(n, dtype=bool)
@@ -414,19 +403,8 @@ def ik_all_many(robot: Robot, Ts: np.ndarray, seed: np.ndarray | None = None) ->
     analytic = robot.analytic_ik
     if analytic is None or analytic.held is not None:
         return [ik_all(robot, T, seed) for T in Ts]
-    n, dof = len(Ts), robot.dof
-    rows = analytic.solve_many(Ts)
-    counts = np.array([len(r) for r in rows])
-    Q = np.concatenate(rows) if counts.sum() else np.zeros((0, dof))
-    owner = np.repeat(np.arange(n), counts)
-    pe, oe = pose_errors_many(robot, Q, Ts[owner])
-    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
-    fix = ~good & (pe < POLISH_BELOW)
-    if fix.any():  # rare: EAIK's least-squares answers at singular poses
-        for i in np.flatnonzero(fix):
-            Q[i] = _polish(robot, Ts[owner[i]], Q[i : i + 1], {})[0]
-        pe, oe = pose_errors_many(robot, Q, Ts[owner])
-        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    n = len(Ts)
+    Q, owner, good = _analytic_verified(robot, analytic, Ts)
     Q, owner = Q[good], owner[good]
     # the 2 pi turn of each joint nearest the seed, inside the limits (rows with none are dropped)
     lo, hi, rev = robot.position_limits[:, 0], robot.position_limits[:, 1], robot.revolute
@@ -471,3 +449,22 @@ def ik_all_many(robot: Robot, Ts: np.ndarray, seed: np.ndarray | None = None) ->
             )
         out.append(IKSolutions(Q[a:b], tuple(labels[a:b]), pe[a:b], oe[a:b], "analytic", warn))
     return out
+
+
+def _analytic_verified(robot: Robot, analytic, Ts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Every analytic candidate of the poses ``Ts`` (N, 4, 4) at once: ``Q`` (M, dof), the pose
+    each belongs to ``owner`` (M,), and ``good`` (M,): verified by FK to 1e-9 m / rad (candidates
+    near it Newton-polished first: EAIK's least-squares answers at singular poses)."""
+    rows = analytic.solve_many(Ts)
+    counts = np.array([len(r) for r in rows])
+    Q = np.concatenate(rows) if counts.sum() else np.zeros((0, robot.dof))
+    owner = np.repeat(np.arange(len(Ts)), counts)
+    pe, oe = pose_errors_many(robot, Q, Ts[owner])
+    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    fix = ~good & (pe < POLISH_BELOW)
+    if fix.any():  # rare: EAIK's least-squares answers at singular poses
+        for i in np.flatnonzero(fix):
+            Q[i] = _polish(robot, Ts[owner[i]], Q[i : i + 1], {})[0]
+        pe, oe = pose_errors_many(robot, Q, Ts[owner])
+        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    return Q, owner, good

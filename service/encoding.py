@@ -288,28 +288,25 @@ def json_response(body: Any, status_code: int = 200) -> Response:
     return response
 
 
-class _AdmittedResponse(Response):
-    """A response that returns its reservation once it is sent (or fails to be)."""
+class _ReleasesReservation:
+    """Mixed into a starlette response: returns its reservation once it is sent (or fails to be)."""
 
     reservation: Reservation | None = None
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         try:
-            await super().__call__(scope, receive, send)
+            await super().__call__(scope, receive, send)  # type: ignore[misc]
         finally:
             if self.reservation is not None:
                 self.reservation.release()
 
 
-class _AdmittedStreamingResponse(StreamingResponse):
-    reservation: Reservation | None = None
+class _AdmittedResponse(_ReleasesReservation, Response):
+    """A whole response that returns its reservation once it is sent."""
 
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        try:
-            await super().__call__(scope, receive, send)
-        finally:
-            if self.reservation is not None:
-                self.reservation.release()
+
+class _AdmittedStreamingResponse(_ReleasesReservation, StreamingResponse):
+    """A streamed response that returns its reservation once it is sent."""
 
 
 def _stream(body: dict[str, Any]) -> Iterator[bytes]:

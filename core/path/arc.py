@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from core.errors import InputError
 from core.geometry import so3
-from core.path.base import PathDeviation
+from core.path.base import PathDeviation, PosesFromParts
 from core.path.line import StraightLine
 
 CENTER_TOLERANCE = 1e-4
@@ -33,7 +33,7 @@ from each other) for a unique circle."""
 _EPS = 1e-12
 
 
-class Arc:
+class Arc(PosesFromParts):
     """The circular arc from ``T_start`` to ``T_goal`` through ``interim`` or about ``center``.
 
     Args:
@@ -140,19 +140,6 @@ class Arc:
     def rotation_matrices(self, s: np.ndarray) -> np.ndarray:
         """Tool orientation matrices (N, 3, 3) at ``s`` (N,)."""
         return self._slerp.rotation_matrices(s)
-
-    def poses(self, s: np.ndarray) -> np.ndarray:
-        """Tool poses ``T_base_tool`` at ``s`` (N,): shape (N, 4, 4)."""
-        s = np.atleast_1d(np.asarray(s, dtype=float))
-        T = np.zeros((s.size, 4, 4))
-        T[:, :3, :3] = self.rotation_matrices(s)
-        T[:, :3, 3] = self.positions(s)
-        T[:, 3, 3] = 1.0
-        return T
-
-    def pose(self, s: float) -> np.ndarray:
-        """One tool pose (4, 4) at ``s``."""
-        return self.poses(np.array([s]))[0]
 
     def twist(self, s_dot: np.ndarray, s: np.ndarray | float = 0.0) -> np.ndarray:
         """Tool twist (N, 6) [m/s, rad/s] in the base frame at path parameters ``s`` and speeds

@@ -70,3 +70,27 @@ class Path(Protocol):
         """Closest-point deviation of poses ``T`` (N, 4, 4) from the path; the tolerances [m],
         [rad] only weigh position against orientation when choosing the closest point."""
         ...
+
+
+class PosesFromParts:
+    """``poses`` and ``pose`` of a path from its ``positions(s)`` (N, 3) and
+    ``rotation_matrices(s)`` (N, 3, 3): the one assembly of ``T_base_tool`` both shapes share."""
+
+    def positions(self, s: np.ndarray) -> np.ndarray:  # pragma: no cover - provided by the shape
+        raise NotImplementedError
+
+    def rotation_matrices(self, s: np.ndarray) -> np.ndarray:  # pragma: no cover - the shape's
+        raise NotImplementedError
+
+    def poses(self, s: np.ndarray) -> np.ndarray:
+        """Tool poses ``T_base_tool`` at ``s`` (N,): shape (N, 4, 4)."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        T = np.zeros((s.size, 4, 4))
+        T[:, :3, :3] = self.rotation_matrices(s)
+        T[:, :3, 3] = self.positions(s)
+        T[:, 3, 3] = 1.0
+        return T
+
+    def pose(self, s: float) -> np.ndarray:
+        """One tool pose (4, 4) at path parameter ``s``."""
+        return self.poses(np.array([s]))[0]

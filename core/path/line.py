@@ -17,12 +17,12 @@ from __future__ import annotations
 import numpy as np
 
 from core.geometry import so3
-from core.path.base import PathDeviation
+from core.path.base import PathDeviation, PosesFromParts
 
 _EPS = 1e-12
 
 
-class StraightLine:
+class StraightLine(PosesFromParts):
     """The straight line from ``T_start`` to ``T_goal`` (4x4 ``T_base_tool`` each).
 
     Args:
@@ -64,19 +64,6 @@ class StraightLine:
     def rotation_matrices(self, s: np.ndarray) -> np.ndarray:
         """Tool orientations ``(N, 3, 3)`` at ``s`` (N,): slerp on the shorter arc (``so3.slerp``)."""
         return so3.slerp(self.R0, self.rotvec, s)
-
-    def poses(self, s: np.ndarray) -> np.ndarray:
-        """Tool poses ``T_base_tool`` at ``s`` (N,): shape (N, 4, 4)."""
-        s = np.atleast_1d(np.asarray(s, dtype=float))
-        T = np.zeros((s.size, 4, 4))
-        T[:, :3, :3] = self.rotation_matrices(s)
-        T[:, :3, 3] = self.positions(s)
-        T[:, 3, 3] = 1.0
-        return T
-
-    def pose(self, s: float) -> np.ndarray:
-        """One tool pose (4, 4) at path parameter ``s``."""
-        return self.poses(np.array([s]))[0]
 
     def twist(self, s_dot: np.ndarray) -> np.ndarray:
         """Tool twist (N, 6) in the base frame for path speeds ``s_dot`` [1/s]: [v (m/s), w (rad/s)].
