@@ -43,7 +43,7 @@ from core.errors import Infeasible, InputError, JointRateLimit, Singularity
 from core.path import Path
 from core.timing import TIMING_LAWS, Profile, TimingSpec, speed_limited_law
 from core.timing.caps import joint_speed_cap
-from core.timing.quintic import QUINTIC_PEAK_SPEED, QuinticTiming
+from core.timing.quintic import QUINTIC_PEAK_VELOCITY, QuinticTiming
 from core.trajectory import Trajectory, sample_times
 
 MIN_SPEED_FRACTION = 1e-3
@@ -83,7 +83,7 @@ def nominal_path_speed(task: CartesianTask, line: Path) -> float:
     """The peak s' [1/s] the task asks for: 1.875 / duration, or the tool speed limits over the
     line's length and angle (``inf`` when no limit applies to this line's motion)."""
     if task.duration is not None:
-        return QUINTIC_PEAK_SPEED / task.duration
+        return QUINTIC_PEAK_VELOCITY / task.duration
     linear, angular = task.speeds()
     speed = np.inf
     for extent, limit in ((line.length, linear), (line.angle, angular)):

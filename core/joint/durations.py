@@ -14,6 +14,7 @@ import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
 from core.errors import Infeasible
+from core.timing.quintic import QUINTIC_PEAK_ACCELERATION, QUINTIC_PEAK_VELOCITY
 
 MIN_DURATION = 1e-3
 """Shortest trajectory the planners return [s]; a plan that needs less (no motion) is stretched."""
@@ -25,10 +26,6 @@ NONZERO_END_VELOCITY = (
 )
 """Warning attached to a plan that does not end at rest."""
 
-QUINTIC_PEAK_VELOCITY = 15.0 / 8.0
-"""Rest-to-rest quintic: peak velocity is 1.875 |dq| / T."""
-QUINTIC_PEAK_ACCELERATION = 10.0 / np.sqrt(3.0)
-"""Rest-to-rest quintic: peak acceleration is 5.7735 |dq| / T^2."""
 CUBIC_PEAK_VELOCITY = 1.5
 """Rest-to-rest cubic: peak velocity is 1.5 |dq| / T."""
 CUBIC_PEAK_ACCELERATION = 6.0

@@ -11,8 +11,10 @@ import numpy as np
 
 from core.errors import InputError
 
-QUINTIC_PEAK_SPEED = 1.875
-"""Peak s' of the quintic rest-to-rest profile is 1.875 / duration (for s from 0 to 1)."""
+QUINTIC_PEAK_VELOCITY = 15.0 / 8.0
+"""Rest-to-rest quintic: peak velocity 1.875 |dq| / T (peak s' is 1.875 / duration)."""
+QUINTIC_PEAK_ACCELERATION = 10.0 / np.sqrt(3.0)
+"""Rest-to-rest quintic: peak acceleration 5.7735 |dq| / T^2."""
 _BISECTIONS = 60
 
 
