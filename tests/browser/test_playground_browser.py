@@ -622,6 +622,7 @@ def test_obstacles_are_drawn_and_sent_as_the_environment(server: str, page: Any)
         page.find_element(By.CSS_SELECTOR, "#env-table tr[data-obstacle] button").click()
     _click_and_wait(page, "c-plan")
     assert "environment" not in _last_request(page)[1]
+    assert not page.find_element(By.ID, "card-clearance").is_displayed()  # no environment: no plot
 
 
 def test_program_editor_reorders_and_a_bad_blend_is_named(server: str, page: Any) -> None:
@@ -704,6 +705,20 @@ def test_a_collision_is_marked_where_it_happens(server: str, page: Any) -> None:
     clearance = body["diagnostics"]["min_clearance"]
     assert clearance > 0
     assert f"{clearance:.3g}"[:4] in page.find_element(By.ID, "summary").text
+    # The clearance over time: the answer's clearance_profile, the requested clearance dashed.
+    assert page.find_element(By.ID, "card-clearance").is_displayed()
+    traces = {(t["meta"] or {}).get("role"): t for t in _traces(page, "plot-clearance")}
+    prof = body["diagnostics"]["clearance_profile"]
+    drawn = traces["clearance-profile"]
+    assert drawn["n"] == len(prof["time_from_start"]) >= 2
+    np.testing.assert_allclose(drawn["x"], prof["time_from_start"][:12], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(drawn["y"], prof["value"][:5], rtol=0, atol=1e-12)
+    assert min(prof["value"]) >= clearance - 1e-9
+    assert traces["clearance"]["y"] == [0, 0]
+    assert (
+        page.execute_script("return document.getElementById('plot-clearance').data[1].line.dash")
+        == "dash"
+    )
 
 
 _GEOMETRY = [
