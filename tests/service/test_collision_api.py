@@ -306,6 +306,13 @@ def test_spline_and_compare_carry_the_environment(client) -> None:
     resp = client.post("/v1/compare", json={"task": task, "methods": ["sampled"]})
     row = resp.json()["results"][0]
     assert not row["ok"] and row["error"]["code"] == "collision"
+    task["environment"] = {"obstacles": [{**TABLE, "shape": {**TABLE["shape"], "offset": -0.5}}]}
+    resp = client.post("/v1/compare", json={"task": task, "methods": ["sampled"]})
+    row = resp.json()["results"][0]
+    assert row["ok"], row
+    prof = row["diagnostics"]["clearance_profile"]
+    assert 2 <= len(prof["value"]) <= 200 and prof["time_from_start"][0] == 0.0
+    assert min(prof["value"]) >= row["diagnostics"]["min_clearance"] - 1e-9
 
 
 def test_distance_endpoint_against_a_closed_form(client) -> None:
@@ -490,6 +497,9 @@ def test_program_collision_names_its_segment_and_s(client) -> None:
     assert doc["diagnostics"]["failure"]["segment"] == 1
     a, b, r = tool_capsule(doc["points"][-1]["positions"])
     assert point_segment(center, a, b) - r - R >= 0
+    prof = doc["diagnostics"]["clearance_profile"]  # the returned prefix, every value clear
+    assert prof["time_from_start"][-1] == doc["points"][-1]["time_from_start"]
+    assert min(prof["value"]) >= 0 > doc["diagnostics"]["min_clearance"]
 
 
 def shape_ends(entry: dict) -> tuple[np.ndarray, np.ndarray]:
