@@ -325,6 +325,41 @@ class CollisionChecker:
             out[k : k + m] = self._entries(A, B, r, p).reshape(m, P)
         return out
 
+    def min_distances(self, qs: np.ndarray) -> np.ndarray:
+        """Smallest signed distance ``(N,)`` [m] over every checked pair for each row of ``qs``
+        ``(N, dof)``: ``distances(qs).min(axis=1)``, exact, but box and cylinder entries whose
+        bounding-sphere lower bound is not below the row's smallest exact distance are skipped."""
+        qs = np.atleast_2d(np.asarray(qs, dtype=float))
+        n, P = qs.shape[0], self.n_pairs
+        out = np.full(n, math.inf)
+        boxy_obs = np.isin(self._kind, (SHAPES.index("box"), SHAPES.index("cylinder")))
+        n_obs = len(self._obs_pairs)
+        boxy = np.zeros(P, dtype=bool)
+        boxy[:n_obs] = boxy_obs[self._ok] if n_obs else False
+        rows = max(1, CHUNK_ENTRIES // max(P, 1))
+        for k in range(0, n, rows):
+            A, B = self._capsules_world(qs[k : k + rows])
+            m = len(A)
+            r, p = np.repeat(np.arange(m), P), np.tile(np.arange(P), m)
+            d = self._entries(A, B, r, p, -math.inf)  # box, cylinder: exact or a lower bound
+            best = np.full(m, math.inf)
+            np.minimum.at(best, r[~boxy[p]], d[~boxy[p]])
+            todo = np.flatnonzero(boxy[p])
+            # the box entry with the smallest bound of each row first, then whatever may still win
+            for stage in range(2):
+                todo = todo[d[todo] < best[r[todo]]]
+                if stage == 0 and len(todo):
+                    order = todo[np.lexsort((d[todo], r[todo]))]
+                    pick = order[np.r_[True, r[order][1:] != r[order][:-1]]]
+                else:
+                    pick = todo
+                if len(pick):
+                    d[pick] = self._entries(A, B, r[pick], p[pick])
+                    np.minimum.at(best, r[pick], d[pick])
+                    todo = np.setdiff1d(todo, pick)
+            out[k : k + m] = best
+        return out
+
     # per-entry distances ---------------------------------------------------------------------
     def _prepare_entries(self) -> None:
         """Per-pair and per-obstacle arrays for ``_entries``."""

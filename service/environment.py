@@ -4,7 +4,8 @@
 ``environment`` and the robot's own links: a start or goal in collision is 422 ``collision`` saying
 which; a contact on the way is 422 ``collision`` (time, ``s`` for Cartesian plans, the two names, the
 distance), or with ``allow_partial`` the prefix before the contact. Diagnostics gain ``min_clearance``
-[m] and ``closest`` whenever something is checked. Without ``environment``, robots with collision
+[m], ``closest`` and ``clearance_profile`` (the smallest pair distance at up to ``PROFILE_POINTS``
+returned points) whenever something is checked. Without ``environment``, robots with collision
 geometry are still checked for self-collision.
 """
 
@@ -24,6 +25,9 @@ from robots.collision import CollisionChecker, Obstacle, robot_setup
 from robots.model import Robot
 from service.schemas.environment import Environment, Halfspace
 
+PROFILE_POINTS = 200
+"""Most returned points in a ``clearance_profile`` (evenly spread over the rows, ends included)."""
+
 
 @dataclass(frozen=True)
 class Guarded:
@@ -31,8 +35,8 @@ class Guarded:
 
     Attributes:
         trajectory: What to return.
-        diagnostics: ``min_clearance``, ``closest`` (and ``unchecked_links`` warnings); empty when
-            nothing was checked.
+        diagnostics: ``min_clearance``, ``closest``, ``clearance_profile`` (and
+            ``collision_warnings``); empty when nothing was checked.
         failure: The contact that cut the trajectory, or None.
         fraction: Share of the duration returned (1 without a contact).
     """
@@ -63,6 +67,16 @@ def obstacles(env: Environment) -> list[Obstacle]:
             )
         )
     return out
+
+
+def clearance_profile(check: CollisionChecker, trajectory: Trajectory) -> dict[str, list[float]]:
+    """The smallest distance [m] over the checked pairs (negative: penetration) at up to
+    ``PROFILE_POINTS`` returned points of ``trajectory``, evenly spread by index with both ends
+    (every point when there are fewer): ``{"time_from_start": [s], "value": [m]}``."""
+    n = len(trajectory.times)
+    rows = np.unique(np.round(np.linspace(0, n - 1, min(n, PROFILE_POINTS))).astype(int))
+    d = check.min_distances(trajectory.positions[rows])
+    return {"time_from_start": trajectory.times[rows].tolist(), "value": d.tolist()}
 
 
 def checker(
@@ -160,6 +174,7 @@ def guard(
         ]
     c = result.contact
     if c is None:
+        diag["clearance_profile"] = clearance_profile(check, trajectory)
         return Guarded(trajectory, diag)
     s = None if s_at is None else s_at(c.time)
     err = Collision(
@@ -178,6 +193,7 @@ def guard(
         trajectory.joint_names,
     )
     fraction = float(times[k - 1] / times[-1]) if times[-1] > 0 else 0.0
+    diag["clearance_profile"] = clearance_profile(check, prefix)
     return Guarded(prefix, diag, err, fraction)
 
 

@@ -1200,6 +1200,37 @@
     draw('plot-deviation', traces, layout, `${robotName()}-deviation`);
   }
 
+  /**
+   * The smallest robot-obstacle / link-link distance over time (``diagnostics.clearance_profile``)
+   * with the requested ``clearance`` dashed, in the card ``card<suffix>-clearance``: shown only when
+   * the request carried an environment and the answer has a profile.
+   */
+  function renderClearance(suffix, diag, req) {
+    const card = $(`card${suffix}-clearance`);
+    const prof = diag && diag.clearance_profile;
+    const env = req && req.environment;
+    card.hidden = !(env && prof && prof.time_from_start && prof.time_from_start.length);
+    if (card.hidden) return null;
+    const t = prof.time_from_start;
+    const clearance = env.clearance || 0;
+    const traces = [
+      { type: 'scatter', mode: 'lines', name: 'smallest distance', x: t, y: prof.value,
+        line: { color: COLORS[0], width: 2 }, meta: { role: 'clearance-profile' },
+        hovertemplate: '%{y:.4f} m<extra>t=%{x:.3f} s</extra>' },
+      { type: 'scatter', mode: 'lines', name: `clearance ${fmt(clearance)} m`,
+        x: [t[0], t[t.length - 1]], y: [clearance, clearance],
+        line: { color: FAIL_COLOR, width: 1.5, dash: 'dash' }, meta: { role: 'clearance' } },
+    ];
+    if (diag.min_clearance !== undefined && diag.min_clearance !== null) {
+      traces[0].name = `smallest distance (min ${fmt(diag.min_clearance, 4)} m)`;
+    }
+    return draw(`plot${suffix}-clearance`, traces, baseLayout({
+      xaxis: axis('time [s]'), yaxis: axis('distance [m]'),
+      legend: { orientation: 'h', y: -0.3, yanchor: 'top', font: { size: 11 } },
+      margin: { l: 64, r: 16, t: 16, b: 40 },
+    }), `${robotName()}-clearance`);
+  }
+
   function renderSigma(diag, tool, marks, emptyMessage) {
     const prof = diag && diag.singular_value_profile;
     const sAt = sOfTime(diag && diag.deviation_profile);
@@ -1289,6 +1320,7 @@
         line && line.goalFk ? line.goalFk.configuration : (tool && !failure ? tool.config[tool.config.length - 1] : null));
       renderDeviation(diag, tolerance, marks, empty);
       renderSigma(diag, tool, marks, empty);
+      renderClearance('', diag, req);
       const knots = body && body.knots ? body.knots.map((k, i) => ({ t: k.time_from_start,
         positions: k.positions, label: `knot ${i + 1} (s=${fmt(k.s, 3)})`, kind: 'knots' })) : null;
       renderJoints(body, robotLimits(), knots,
@@ -1349,6 +1381,7 @@
       }
       renderJoints(body, limits, knots,
         problem ? `No trajectory: ${problem.code || 'error'} — ${problem.detail || ''}` : null);
+      renderClearance('-joint', body && !problem ? body.diagnostics : null, req);
       ['plot-deviation', 'plot-sigma'].forEach((d) =>
         placeholder(d, 'Plan a Cartesian line to see the deviation and σ'));
       if (body && req.robot) {
@@ -1933,6 +1966,7 @@
       if (!body || !body.points || !body.points.length) {
         placeholder('plot-program-path', `No program: ${problem ? problem.code : 'no points'}`);
         placeholder('plot-program-speed', 'No program');
+        renderClearance('-program', null, req);
         renderProgramTable([], problem);
         renderJoints(null, robotLimits(), null, 'No program');
         return;
@@ -1941,6 +1975,7 @@
       const goals = await programGoals(req);
       renderProgramPath(body, tool, goals, req, failure);
       renderProgramSpeed(body, tool, failure);
+      renderClearance('-program', diag, req);
       renderProgramTable(body.segments || [], failure);
       const knots = (body.segments || []).map((sg) => {
         const t = sg.end_time;

@@ -622,6 +622,7 @@ def test_obstacles_are_drawn_and_sent_as_the_environment(server: str, page: Any)
         page.find_element(By.CSS_SELECTOR, "#env-table tr[data-obstacle] button").click()
     _click_and_wait(page, "c-plan")
     assert "environment" not in _last_request(page)[1]
+    assert not page.find_element(By.ID, "card-clearance").is_displayed()  # no environment: no plot
 
 
 def test_program_editor_reorders_and_a_bad_blend_is_named(server: str, page: Any) -> None:
@@ -704,6 +705,20 @@ def test_a_collision_is_marked_where_it_happens(server: str, page: Any) -> None:
     clearance = body["diagnostics"]["min_clearance"]
     assert clearance > 0
     assert f"{clearance:.3g}"[:4] in page.find_element(By.ID, "summary").text
+    # The clearance over time: the answer's clearance_profile, the requested clearance dashed.
+    assert page.find_element(By.ID, "card-clearance").is_displayed()
+    traces = {(t["meta"] or {}).get("role"): t for t in _traces(page, "plot-clearance")}
+    prof = body["diagnostics"]["clearance_profile"]
+    drawn = traces["clearance-profile"]
+    assert drawn["n"] == len(prof["time_from_start"]) >= 2
+    np.testing.assert_allclose(drawn["x"], prof["time_from_start"][:12], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(drawn["y"], prof["value"][:5], rtol=0, atol=1e-12)
+    assert min(prof["value"]) >= clearance - 1e-9
+    assert traces["clearance"]["y"] == [0, 0]
+    assert (
+        page.execute_script("return document.getElementById('plot-clearance').data[1].line.dash")
+        == "dash"
+    )
 
 
 _GEOMETRY = [
@@ -790,3 +805,47 @@ def test_collision_geometry_of_the_description_is_drawn_on_the_arm(server: str, 
     on_capsule = np.abs(np.linalg.norm(points - (c1 + np.outer(t, ax1)), axis=1) - 0.04) < 1e-9
     assert np.all(on_sphere | on_capsule)
     assert on_sphere.sum() > 50 and on_capsule.sum() > 50
+
+
+def _clearance_plot(page: Any, server: str, plot: str) -> None:
+    """The last plan's clearance_profile is drawn in ``plot`` (times and values), with the requested
+    clearance as a dashed line."""
+    path, request = _last_request(page)
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    prof = body["diagnostics"]["clearance_profile"]
+    times = [p["time_from_start"] for p in body["points"]]
+    assert set(prof["time_from_start"]) <= set(times)
+    traces = {(t["meta"] or {}).get("role"): t for t in _traces(page, plot)}
+    assert traces["clearance-profile"]["n"] == len(prof["value"])
+    np.testing.assert_allclose(traces["clearance-profile"]["x"], prof["time_from_start"][:12])
+    np.testing.assert_allclose(traces["clearance-profile"]["y"], prof["value"][:5])
+    c = request["environment"]["clearance"]
+    assert traces["clearance"]["y"] == [c, c]
+
+
+def test_joint_and_program_views_plot_the_clearance_over_time(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    _click_and_wait(page, "c-plan")
+    page.find_element(By.ID, "env-add-sphere").click()
+    z = page.find_element(By.ID, "env-pos-0-2")
+    lifted = float(z.get_attribute("value")) + 1.0
+    z.clear()
+    z.send_keys(str(lifted))
+    clearance = page.find_element(By.ID, "env-clearance")
+    clearance.clear()
+    clearance.send_keys("0.01")
+    page.find_element(By.ID, "env-radius-0").click()  # blur: the change event
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='joint']").click()
+    _click_and_wait(page, "j-plan")
+    assert page.find_element(By.ID, "card-joint-clearance").is_displayed()
+    _clearance_plot(page, server, "plot-joint-clearance")
+    page.find_element(By.CSS_SELECTOR, "#form-tabs button[data-tab='program']").click()
+    Select(page.find_element(By.ID, "p-preset")).select_by_value("ur5-weld")
+    WebDriverWait(page, 15).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#p-segments .segment")) == 5
+    )
+    _click_and_wait(page, "p-plan")
+    assert page.find_element(By.ID, "card-program-clearance").is_displayed()
+    _clearance_plot(page, server, "plot-program-clearance")
+    assert _severe_console_errors(page) == []

@@ -11,8 +11,10 @@ from fastapi.testclient import TestClient
 from robots import registry
 from robots.geometry import ROBOT_GEOMETRY
 from service.app import create_app
+from service.environment import checker
 from service.routes.collision import collision_description
 from service.schemas.common import Pose
+from service.schemas.environment import Environment
 from tests.service.helpers import problem
 
 UR5 = registry.get("ur5")
@@ -179,6 +181,80 @@ def test_min_clearance_equals_an_independent_distance(client) -> None:
     assert doc["diagnostics"]["min_clearance"] == pytest.approx(ref, abs=1e-6)
 
 
+def ur5_capsules_world(q) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Every UR5 capsule in the base frame, placed by pinocchio's frame poses."""
+    out = []
+    for c in ROBOT_GEOMETRY["ur5"].capsules:
+        T = UR5.frame_pose(np.asarray(q), c.link)
+        out.append(
+            (T[:3, :3] @ np.array(c.a) + T[:3, 3], T[:3, :3] @ np.array(c.b) + T[:3, 3], c.radius)
+        )
+    return out
+
+
+@pytest.mark.parametrize("samples", [500, 37])
+def test_clearance_profile_is_the_smallest_distance_at_returned_points(client, samples) -> None:
+    """``clearance_profile``: at most 200 returned points, evenly spread, both ends; each value is the
+    smallest closed-form capsule-to-ball distance at that point; its minimum is no smaller than
+    ``min_clearance`` (the continuous minimum)."""
+    goal = np.array(HOME)
+    goal[0] += 0.6
+    balls = [
+        (UR5.fk(goal)[:3, 3] + [0.0, 0.0, -0.12], 0.05),
+        (UR5.fk(np.array(HOME))[:3, 3] + [0.0, 0.0, -0.15], 0.04),
+    ]
+    body = {
+        "robot": "ur5",
+        "start": {"positions": HOME},
+        "goal": {"positions": goal.tolist()},
+        "profile": "quintic",
+        "samples": samples,
+        "environment": {
+            "obstacles": [ball(f"b{i}", c, r) for i, (c, r) in enumerate(balls)],
+            "self_collision": False,
+        },
+    }
+    resp = client.post("/v1/trajectories/joint", json=body)
+    assert resp.status_code == 200, resp.text
+    doc = resp.json()
+    prof = doc["diagnostics"]["clearance_profile"]
+    times = np.array([p["time_from_start"] for p in doc["points"]])
+    assert len(times) == samples
+    t, v = np.array(prof["time_from_start"]), np.array(prof["value"])
+    assert len(t) == len(v) == min(samples, 200)
+    rows = np.searchsorted(times, t)
+    np.testing.assert_array_equal(times[rows], t)  # returned times, exactly
+    assert rows[0] == 0 and rows[-1] == samples - 1 and (np.diff(rows) > 0).all()
+    assert np.diff(rows).max() - np.diff(rows).min() <= 1  # evenly spread
+    ref = [
+        min(
+            point_segment(c, a, b) - rc - r
+            for a, b, rc in ur5_capsules_world(doc["points"][k]["positions"])
+            for c, r in balls
+        )
+        for k in rows
+    ]
+    np.testing.assert_allclose(v, ref, rtol=0, atol=1e-6)
+    assert v.min() >= doc["diagnostics"]["min_clearance"] - 1e-9
+
+
+def test_clearance_profile_of_a_partial_plan_covers_the_returned_prefix(client) -> None:
+    offset = np.array([0.0, 0.3, 0.0])
+    center, R = UR5.fk(UR5.home)[:3, 3] + 0.7 * offset, 0.03
+    body = lin_body(
+        offset, environment={"obstacles": [ball("ball", center, R)]}, allow_partial=True
+    )
+    resp = client.post("/v1/trajectories/cartesian", json=body)
+    assert resp.status_code == 200, resp.text
+    doc = resp.json()
+    times = [p["time_from_start"] for p in doc["points"]]
+    prof = doc["diagnostics"]["clearance_profile"]
+    assert prof["time_from_start"][-1] == times[-1] and prof["time_from_start"][0] == times[0]
+    assert set(prof["time_from_start"]) <= set(times)
+    assert doc["diagnostics"]["failure"]["code"] == "collision"
+    assert doc["diagnostics"]["min_clearance"] < 0 <= min(prof["value"])  # only the clear prefix
+
+
 def test_panda_self_collision_through_the_api(client) -> None:
     panda = registry.get("panda")
     goal = np.array([0.0, 1.5, 0.0, -0.3, 0.0, 3.5, 0.0])  # folds the wrist back into the arm
@@ -222,12 +298,21 @@ def test_spline_and_compare_carry_the_environment(client) -> None:
     resp = client.post("/v1/trajectories/spline", json=body)
     assert resp.status_code == 200, resp.text
     assert resp.json()["diagnostics"]["min_clearance"] > 0
+    prof = resp.json()["diagnostics"]["clearance_profile"]
+    assert len(prof["value"]) == len(resp.json()["points"])
     offset = np.array([0.0, 0.0, -0.23])
     task = lin_body(offset, environment={"obstacles": [TABLE]})
     task.pop("method")
     resp = client.post("/v1/compare", json={"task": task, "methods": ["sampled"]})
     row = resp.json()["results"][0]
     assert not row["ok"] and row["error"]["code"] == "collision"
+    task["environment"] = {"obstacles": [{**TABLE, "shape": {**TABLE["shape"], "offset": -0.5}}]}
+    resp = client.post("/v1/compare", json={"task": task, "methods": ["sampled"]})
+    row = resp.json()["results"][0]
+    assert row["ok"], row
+    prof = row["diagnostics"]["clearance_profile"]
+    assert 2 <= len(prof["value"]) <= 200 and prof["time_from_start"][0] == 0.0
+    assert min(prof["value"]) >= row["diagnostics"]["min_clearance"] - 1e-9
 
 
 def test_distance_endpoint_against_a_closed_form(client) -> None:
@@ -412,6 +497,9 @@ def test_program_collision_names_its_segment_and_s(client) -> None:
     assert doc["diagnostics"]["failure"]["segment"] == 1
     a, b, r = tool_capsule(doc["points"][-1]["positions"])
     assert point_segment(center, a, b) - r - R >= 0
+    prof = doc["diagnostics"]["clearance_profile"]  # the returned prefix, every value clear
+    assert prof["time_from_start"][-1] == doc["points"][-1]["time_from_start"]
+    assert min(prof["value"]) >= 0 > doc["diagnostics"]["min_clearance"]
 
 
 def shape_ends(entry: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -584,3 +672,30 @@ def test_dls_avoidance_needs_osqp(client) -> None:
     # without an environment any solver plans as before
     free = {**body, "solver": "daqp", "environment": None}
     assert client.post("/v1/trajectories/cartesian", json=free).status_code == 200
+
+
+def test_min_distances_skips_only_boxes_that_cannot_be_the_smallest() -> None:
+    """``CollisionChecker.min_distances`` (box and cylinder entries skipped by their bounding
+    spheres) equals the exact ``distances(...).min(axis=1)`` among boxes and cylinders near and far."""
+    rng = np.random.default_rng(3)
+    tool = UR5.fk(UR5.home)[:3, 3]
+    obstacles = []
+    for i in range(10):
+        shape = (
+            {"type": "box", "size": [0.1, 0.2, 0.05]}
+            if i % 2
+            else {"type": "cylinder", "radius": 0.04, "length": 0.2}
+        )
+        q = rng.normal(size=4)
+        pose = {
+            "position": (tool + rng.uniform(-0.4, 0.4, 3)).tolist(),
+            "orientation": (q / np.linalg.norm(q)).tolist(),
+        }
+        obstacles.append({"name": f"o{i}", "shape": shape, "pose": pose})
+    for self_collision in (True, False):
+        env = Environment.model_validate({"obstacles": obstacles, "self_collision": self_collision})
+        check = checker(UR5, env)
+        qs = UR5.home + rng.uniform(-0.8, 0.8, (300, 6))
+        exact = check.distances(qs).min(axis=1)
+        assert (exact < 0).any() and (exact > 0).any()
+        np.testing.assert_allclose(check.min_distances(qs), exact, rtol=0, atol=1e-12)
