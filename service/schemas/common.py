@@ -181,6 +181,24 @@ class TrajectoryResponse(BaseModel):
     diagnostics: Diagnostics
 
 
+class ColumnsTrajectoryResponse(BaseModel):
+    """The same trajectory with ``?layout=columns``: the samples as arrays at the top level."""
+
+    model_config = ConfigDict(extra="allow")
+
+    joint_names: list[str]
+    layout: Literal["columns"]
+    time_from_start: list[float] | list[RosDuration] = Field(
+        description="Time [s] of each sample (ROS Durations with ?time_format=ros)."
+    )
+    positions: list[list[float]] = Field(description="One row of joint positions per sample.")
+    velocities: list[list[float]] = Field(description="One row of joint velocities per sample.")
+    accelerations: list[list[float]] = Field(
+        description="One row of joint accelerations per sample."
+    )
+    diagnostics: Diagnostics
+
+
 class ValidationItem(BaseModel):
     loc: list[str | int]
     msg: str
@@ -247,4 +265,10 @@ class Pose(StrictModel):
 
 def trajectory_responses(model: type[BaseModel]) -> dict[int | str, dict[str, Any]]:
     """OpenAPI ``responses`` of a route answering ``model`` (200) or problem+json."""
-    return {200: {"model": model, "description": "The planned trajectory"}, **PROBLEM_RESPONSES}
+    return {
+        200: {
+            "model": model | ColumnsTrajectoryResponse,  # type: ignore[operator]
+            "description": "The planned trajectory (ROS-shaped points, or ?layout=columns)",
+        },
+        **PROBLEM_RESPONSES,
+    }
