@@ -220,7 +220,8 @@ def test_openapi_documents_every_field(client: TestClient) -> None:
     spec = client.get("/openapi.json").json()
     operation = spec["paths"][URL]["post"]
     ok = operation["responses"]["200"]["content"]["application/json"]["schema"]
-    assert ok["$ref"].endswith("/TrajectoryResponse")
+    refs = sorted(option["$ref"].rsplit("/", 1)[1] for option in ok["anyOf"])
+    assert refs == ["ColumnsTrajectoryResponse", "TrajectoryResponse"]  # both ?layout= shapes
     assert {"404", "413", "422"} <= set(operation["responses"])
     schemas = spec["components"]["schemas"]
     for name in ("JointTrajectoryRequest", "BoundaryState", "Limits"):

@@ -180,7 +180,8 @@ def test_openapi_documents_every_field(client: TestClient) -> None:
     spec = client.get("/openapi.json").json()
     operation = spec["paths"][URL]["post"]
     ok = operation["responses"]["200"]["content"]["application/json"]["schema"]
-    assert ok["$ref"].endswith("/TrajectoryResponse")
+    refs = sorted(option["$ref"].rsplit("/", 1)[1] for option in ok["anyOf"])
+    assert refs == ["ColumnsTrajectoryResponse", "TrajectoryResponse"]  # both ?layout= shapes
     props = spec["components"]["schemas"]["SplineRequest"]["properties"]
     for field, prop in props.items():
         assert prop.get("description"), f"SplineRequest.{field} has no description"
