@@ -7,12 +7,12 @@ planning is CPU-bound, so FastAPI runs it in its thread pool.
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
 from robots import registry
-from service import environment
+from service import deps, environment
 from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
@@ -39,10 +39,12 @@ RESPONSES = trajectory_responses(CartesianResponse)
     ),
 )
 def cartesian_trajectory(
-    body: CartesianRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
+    body: CartesianRequest,
+    request: Request,
+    time_format: TimeFormat = TIME_FORMAT_QUERY,
+    deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
-    deadline = Deadline(settings.time_budget_s)
     robot = registry.resolve(body.robot)
     task = convert.task_from_spec(body, robot, deadline, settings.max_points)
     result, elapsed_ms = convert.run(task, body.method, settings.max_points)

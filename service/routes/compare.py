@@ -12,14 +12,14 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
 from core.cartesian.methods import METHODS
 from core.errors import PlanningError
 from robots import registry
-from service import environment
+from service import deps, environment
 from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.errors import planning_error_body
@@ -43,11 +43,11 @@ def compare(
     body: CompareRequest,
     request: Request,
     time_format: TimeFormat = TIME_FORMAT_QUERY,
+    deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
     robot = registry.resolve(body.task.robot)
     methods = body.methods or list(METHODS)
-    deadline = Deadline(settings.time_budget_s)  # one budget for the whole request
     task = convert.task_from_spec(
         body.task, robot, deadline, settings.max_points, environment_field=("task", "environment")
     )

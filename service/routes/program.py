@@ -11,7 +11,7 @@ import time
 from typing import Any
 
 import numpy as np
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
@@ -20,7 +20,7 @@ from core.kinematics import Kinematics
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
-from service import environment
+from service import deps, environment
 from service.encoding import (
     base_diagnostics,
     check_finite,
@@ -190,10 +190,12 @@ def result_body(
     ),
 )
 def program_trajectory(
-    body: ProgramRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
+    body: ProgramRequest,
+    request: Request,
+    time_format: TimeFormat = TIME_FORMAT_QUERY,
+    deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
-    deadline = Deadline(settings.time_budget_s)
     robot = registry.resolve(body.robot)
     task = task_from_request(body, robot, deadline)
     if body.samples is not None and body.samples > settings.max_points:

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import time
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
 from core.joint.point_to_point import plan_joint
 from core.joint.splines import plan_spline
-from service import environment
+from service import deps, environment
 from service.convert import joint as convert
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
@@ -36,7 +36,10 @@ RESPONSES = trajectory_responses(TrajectoryResponse)
     summary="Point-to-point joint move: linear, cubic, quintic, trapezoidal or jerk_limited",
 )
 def joint_trajectory(
-    body: JointTrajectoryRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
+    body: JointTrajectoryRequest,
+    request: Request,
+    time_format: TimeFormat = TIME_FORMAT_QUERY,
+    deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     started = time.perf_counter()
     motion, limits, names = convert.joint_inputs(body)
@@ -49,7 +52,7 @@ def joint_trajectory(
         samples=body.samples,
         max_points=request.app.state.settings.max_points,
         joint_names=names,
-        deadline=Deadline(request.app.state.settings.time_budget_s),
+        deadline=deadline,
     )
     checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
@@ -63,7 +66,10 @@ def joint_trajectory(
     summary="C2 cubic spline through waypoints (clamped, natural, not-a-knot)",
 )
 def spline_trajectory(
-    body: SplineRequest, request: Request, time_format: TimeFormat = TIME_FORMAT_QUERY
+    body: SplineRequest,
+    request: Request,
+    time_format: TimeFormat = TIME_FORMAT_QUERY,
+    deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     started = time.perf_counter()
     inputs = convert.spline_inputs(body)
@@ -79,7 +85,7 @@ def spline_trajectory(
         samples=body.samples,
         max_points=settings.max_points,
         joint_names=inputs.joint_names,
-        deadline=Deadline(settings.time_budget_s),
+        deadline=deadline,
     )
     checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
