@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import Depends, FastAPI
 
 from service import __version__, deps, errors
+from service.allocator import tune_malloc
 from service.middleware import metrics
 from service.middleware.body_limit import BodyLimitMiddleware
 from service.middleware.catch_all import CatchAllMiddleware
@@ -31,6 +32,7 @@ PLANNING_ROUTERS = (robots, collision)
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings.from_env()
+    tune_malloc(settings.malloc_retain_bytes)  # per process: each worker creates its app
     app = FastAPI(
         title="Trajectory Service",
         version=__version__,

@@ -131,9 +131,15 @@ def check_finite(traj: Trajectory) -> None:
             raise Infeasible(f"planning produced a non-finite {name} value; the plan is refused")
 
 
+STREAM_BYTES = 16 * 1024 * 1024
+"""A trajectory document estimated (``estimate_bytes``) above this many bytes is streamed, so a
+worker never holds the whole encoded document of a large trajectory (hundreds of MB); a smaller one
+is encoded in one call (streaming costs a thread-pool hop per chunk: a 10,000-point, 6-joint
+spline, 4.4 MB, took 9.5 ms streamed and 3.5 ms whole in columns)."""
 STREAM_POINTS = 5_000
-"""A body with more than this many samples is streamed ``STREAM_POINTS`` samples at a time, so a
-worker never holds the whole encoded document of a large trajectory (hundreds of MB)."""
+"""Samples per chunk of a streamed document."""
+CHUNK_BYTES = 1024 * 1024
+"""A streamed document's pieces are sent in runs of at least this many bytes [bytes]."""
 
 BYTES_PER_NUMBER = 24
 """Upper estimate of one encoded float64 in [bytes]: 17 significant digits, sign, point, exponent
@@ -257,8 +263,8 @@ def json_response(body: Any, status_code: int = 200) -> Response:
     A trajectory document past the request's deadline is 422 ``time_budget_exceeded``; an estimate
     (``estimate_bytes``) over the per-request cap is 422 ``too_large``; over the worker's budget of
     response bytes in flight, 503 ``overloaded`` with ``Retry-After``. The reservation is returned
-    when the response has been sent. A document with more than ``STREAM_POINTS`` samples is
-    streamed in chunks (the same bytes)."""
+    when the response has been sent. A trajectory document estimated above ``STREAM_BYTES`` is
+    streamed in chunks of ``STREAM_POINTS`` samples (the same bytes)."""
     policy = current_policy()
     if policy.deadline is not None and isinstance(body, dict) and _samples(body):
         # A trajectory document only: /v1/compare reports a method's timeout in its row.
@@ -272,9 +278,9 @@ def json_response(body: Any, status_code: int = 200) -> Response:
         )
     reservation = RESPONSE_BUDGET.reserve(estimate, policy.budget_bytes) if estimate else None
     response: Response
-    if isinstance(body, dict) and _samples(body) > STREAM_POINTS:
+    if isinstance(body, dict) and estimate > STREAM_BYTES and _samples(body) > STREAM_POINTS:
         response = _AdmittedStreamingResponse(
-            _stream(body), status_code=status_code, media_type="application/json"
+            _coalesced(_stream(body)), status_code=status_code, media_type="application/json"
         )
     else:
         response = _AdmittedResponse(
@@ -307,6 +313,21 @@ class _AdmittedResponse(_ReleasesReservation, Response):
 
 class _AdmittedStreamingResponse(_ReleasesReservation, StreamingResponse):
     """A streamed response that returns its reservation once it is sent."""
+
+
+def _coalesced(pieces: Iterator[bytes]) -> Iterator[bytes]:
+    """The same bytes in runs of at least ``CHUNK_BYTES`` (each run costs starlette a thread-pool
+    hop and uvicorn a write; a document's framing alone is a dozen tiny pieces)."""
+    pending: list[bytes] = []
+    size = 0
+    for piece in pieces:
+        pending.append(piece)
+        size += len(piece)
+        if size >= CHUNK_BYTES:
+            yield b"".join(pending)
+            pending, size = [], 0
+    if pending:
+        yield b"".join(pending)
 
 
 def _stream(body: dict[str, Any]) -> Iterator[bytes]:

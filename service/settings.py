@@ -52,6 +52,8 @@ class Settings(BaseSettings):
         keep_alive_timeout_s: Idle time after which a keep-alive connection is closed in [s].
         max_connections: Open connections plus running requests per worker (uvicorn's
             ``limit_concurrency``); more is 503 ``overloaded``.
+        malloc_retain_bytes: Freed memory a worker keeps for reuse in [bytes] (glibc ``malloc``
+            tuning, ``service.allocator``); 0 leaves glibc's defaults.
     """
 
     model_config = SettingsConfigDict(env_prefix=ENV_PREFIX, frozen=True, extra="forbid")
@@ -73,6 +75,7 @@ class Settings(BaseSettings):
     write_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
     keep_alive_timeout_s: float = Field(5.0, gt=0, allow_inf_nan=False)
     max_connections: int = Field(1000, ge=1)
+    malloc_retain_bytes: int = Field(32 * 1024 * 1024, ge=0, le=1024 * 1024 * 1024)
 
     @field_validator("log_level", "log_format", mode="before")
     @classmethod

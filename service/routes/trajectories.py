@@ -2,7 +2,8 @@
 
 Thin routes: schema -> numpy (``service.convert.joint``) -> one core call -> response
 (``service.encoding``).
-Plain ``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
+Planning is CPU-bound: ``service.dispatch`` runs it in the thread pool, or on the event loop when
+it is tiny joint math (no robot, a small known sample count).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from starlette.responses import Response
 from core.budget import Deadline
 from core.joint.point_to_point import plan_joint
 from core.joint.splines import plan_spline
-from service import deps, environment
+from service import deps, dispatch, environment
 from service.convert import joint as convert
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
@@ -35,28 +36,39 @@ RESPONSES = trajectory_responses(TrajectoryResponse)
     responses=RESPONSES,
     summary="Point-to-point joint move: linear, cubic, quintic, trapezoidal or jerk_limited",
 )
-def joint_trajectory(
+async def joint_trajectory(
     body: JointTrajectoryRequest,
     request: Request,
     time_format: TimeFormat = TIME_FORMAT_QUERY,
     deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     started = time.perf_counter()
-    motion, limits, names = convert.joint_inputs(body)
-    plan = plan_joint(
-        body.profile,
-        motion,
-        limits,
-        duration=body.duration,
-        sample_period=body.sample_period,
-        samples=body.samples,
-        max_points=request.app.state.settings.max_points,
-        joint_names=names,
-        deadline=deadline,
-    )
-    checked = environment.guard_request(body, plan.trajectory)
-    return convert.trajectory_response(
-        checked.trajectory, body.profile, plan.warnings, started, time_format, **checked.diagnostics
+
+    def respond() -> Response:
+        motion, limits, names = convert.joint_inputs(body)
+        plan = plan_joint(
+            body.profile,
+            motion,
+            limits,
+            duration=body.duration,
+            sample_period=body.sample_period,
+            samples=body.samples,
+            max_points=request.app.state.settings.max_points,
+            joint_names=names,
+            deadline=deadline,
+        )
+        checked = environment.guard_request(body, plan.trajectory)
+        return convert.trajectory_response(
+            checked.trajectory,
+            body.profile,
+            plan.warnings,
+            started,
+            time_format,
+            **checked.diagnostics,
+        )
+
+    return await dispatch.run_plan(
+        respond, dispatch.answer_numbers(body, len(body.start.positions))
     )
 
 
@@ -65,36 +77,42 @@ def joint_trajectory(
     responses=RESPONSES,
     summary="C2 cubic spline through waypoints (clamped, natural, not-a-knot)",
 )
-def spline_trajectory(
+async def spline_trajectory(
     body: SplineRequest,
     request: Request,
     time_format: TimeFormat = TIME_FORMAT_QUERY,
     deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     started = time.perf_counter()
-    inputs = convert.spline_inputs(body)
-    settings = request.app.state.settings
-    plan = plan_spline(
-        inputs.waypoints,
-        times=inputs.times,
-        boundary=body.boundary,
-        start_velocity=inputs.start_velocity,
-        goal_velocity=inputs.goal_velocity,
-        limits=inputs.limits,
-        sample_period=body.sample_period,
-        samples=body.samples,
-        max_points=settings.max_points,
-        joint_names=inputs.joint_names,
-        deadline=deadline,
-    )
-    checked = environment.guard_request(body, plan.trajectory)
-    return convert.trajectory_response(
-        checked.trajectory,
-        "spline",
-        plan.warnings,
-        started,
-        time_format,
-        boundary=body.boundary,
-        knot_times=plan.knot_times,
-        **checked.diagnostics,
+
+    def respond() -> Response:
+        inputs = convert.spline_inputs(body)
+        settings = request.app.state.settings
+        plan = plan_spline(
+            inputs.waypoints,
+            times=inputs.times,
+            boundary=body.boundary,
+            start_velocity=inputs.start_velocity,
+            goal_velocity=inputs.goal_velocity,
+            limits=inputs.limits,
+            sample_period=body.sample_period,
+            samples=body.samples,
+            max_points=settings.max_points,
+            joint_names=inputs.joint_names,
+            deadline=deadline,
+        )
+        checked = environment.guard_request(body, plan.trajectory)
+        return convert.trajectory_response(
+            checked.trajectory,
+            "spline",
+            plan.warnings,
+            started,
+            time_format,
+            boundary=body.boundary,
+            knot_times=plan.knot_times,
+            **checked.diagnostics,
+        )
+
+    return await dispatch.run_plan(
+        respond, dispatch.answer_numbers(body, len(body.waypoints[0]) if body.waypoints else 0)
     )

@@ -33,7 +33,8 @@ async def _collect(response) -> bytes:
 
 @pytest.mark.parametrize("n", [STREAM_POINTS + 1, 2 * STREAM_POINTS, 3 * STREAM_POINTS + 7])
 @pytest.mark.parametrize("time_format", ["float", "ros"])
-def test_streamed_body_equals_one_shot(n, time_format):
+def test_streamed_body_equals_one_shot(n, time_format, monkeypatch):
+    monkeypatch.setattr(encoding, "STREAM_BYTES", 0)
     body = _body(n, time_format)
     response = json_response(body)
     assert not hasattr(response, "body")  # streamed
@@ -45,6 +46,28 @@ def test_streamed_body_equals_one_shot(n, time_format):
 def test_small_body_is_one_shot():
     body = _body(10, "float")
     assert json_response(body).body == orjson.dumps(body, option=JSON_OPTIONS)
+
+
+def test_streaming_starts_above_stream_bytes_in_runs_of_chunk_bytes():
+    """Below ``STREAM_BYTES`` (estimated) a document is one body even with many samples; above it,
+    it is streamed, in pieces of at least ``CHUNK_BYTES`` but the last, which join to the same bytes."""
+    many = _body(3 * STREAM_POINTS, "float")
+    assert encoding.estimate_bytes(many) < encoding.STREAM_BYTES
+    assert json_response(many).body == orjson.dumps(many, option=JSON_OPTIONS)
+    n, dof = 12_000, 20
+    rng = np.random.default_rng(3)
+    traj = Trajectory(np.linspace(0.0, 5.0, n), *(rng.normal(size=(n, dof)) for _ in range(3)))
+    big = trajectory_body(traj, {"method": "test", "warnings": []}, "float", layout="points")
+    assert encoding.estimate_bytes(big) > encoding.STREAM_BYTES
+    response = json_response(big)
+    assert not hasattr(response, "body")
+
+    async def pieces() -> list[bytes]:
+        return [chunk async for chunk in response.body_iterator]
+
+    parts = asyncio.run(pieces())
+    assert len(parts) > 1 and all(len(p) >= encoding.CHUNK_BYTES for p in parts[:-1])
+    assert b"".join(parts) == orjson.dumps(big, option=JSON_OPTIONS)
 
 
 # ------------------------------------------------- ?layout=columns and the size estimate (issue 19)
@@ -106,7 +129,8 @@ def test_an_unknown_layout_is_422(client):
 
 @pytest.mark.parametrize("n", [STREAM_POINTS + 1, 3 * STREAM_POINTS + 7])
 @pytest.mark.parametrize("time_format", ["float", "ros"])
-def test_streamed_columns_equal_one_shot(n, time_format):
+def test_streamed_columns_equal_one_shot(n, time_format, monkeypatch):
+    monkeypatch.setattr(encoding, "STREAM_BYTES", 0)
     rng = np.random.default_rng(n)
     traj = Trajectory(np.linspace(0.0, 3.0, n), *(rng.normal(size=(n, 4)) for _ in range(3)))
     body = trajectory_body(traj, {"method": "test"}, time_format, layout="columns")

@@ -11,6 +11,7 @@ import orjson
 import pytest
 
 from core.trajectory import Trajectory
+from service import encoding
 from service.encoding import (
     JSON_OPTIONS,
     STREAM_POINTS,
@@ -65,7 +66,8 @@ async def _collect(response) -> bytes:
 
 @pytest.mark.parametrize("n", [10, STREAM_POINTS, STREAM_POINTS + 1, 2 * STREAM_POINTS + 3])
 @pytest.mark.parametrize("time_format", ["float", "ros"])
-def test_encoded_document_equals_the_list_document(n, time_format):
+def test_encoded_document_equals_the_list_document(n, time_format, monkeypatch):
+    monkeypatch.setattr(encoding, "STREAM_BYTES", 0)  # stream every document over STREAM_POINTS
     traj = _trajectory(n, n, 3)
     diag = {"method": "test", "warnings": []}
     plain = trajectory_body(traj, diag, time_format, "points", knots=[1, 2])
