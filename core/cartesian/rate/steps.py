@@ -77,6 +77,21 @@ def first_limit(
     return float(s_log[k]), int(np.argmax(pinned[k]))
 
 
+def clear_ticks(raw: np.ndarray, vmax: np.ndarray, most: int) -> int:
+    """How many ticks after this one (at most ``most``) have rate bounds equal to the velocity
+    limits ``(-v_max, v_max)`` and next positions ``q + qd dt`` inside the position limits, from
+    this tick's position terms ``raw = ((q_min - q)/dt, (q_max - q)/dt)`` (2, dof) of the bounds.
+
+    Each joint has ``r = min(-raw_0, raw_1)/v_max`` ticks at full speed to its nearer limit, and
+    moves at most ``v_max dt`` a tick (its rates lie within its bounds). So for the next ``i <= r -
+    2`` ticks it keeps more than one tick at full speed from both limits (with a tick to spare for
+    rounding): its position terms lie beyond ``-v_max`` and ``v_max``, which the bounds then are,
+    and a step cannot reach a limit. 0 where any joint is closer than 3 ticks (or ``raw`` is NaN).
+    """
+    reach = float((np.minimum(np.negative(raw[0]), raw[1]) / vmax).min())
+    return int(min(reach - 2.0, most)) if reach > 2.0 else 0
+
+
 def feedforward_ratio(J: np.ndarray, twist: np.ndarray, lam: float, vmax: np.ndarray) -> float:
     """``max_j |qd_j| / v_max_j`` of the DLS rates ``qd = J^T (J J^T + lam^2 I)^-1 twist`` of the
     feedforward twist: the quantity ``time_scale`` bounds, by a Cholesky solve (4 against 10 us
