@@ -52,6 +52,7 @@ import numpy as np
 
 from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
+    SINGULAR_REGION,
     RateLimits,
     build_dls_qp,
     check_solver,
@@ -67,6 +68,7 @@ from core.cartesian.rate.steps import (
     pinv_step,
     pose_error,
     singular_values,
+    smallest_singular_value,
     stuck,
     svd,
     time_scale,
@@ -220,6 +222,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     positions[0] = task.q_start
     q = positions[0]
     nominal_clock, block_at, block_end, block_size = True, 0, 0, _FIRST_BLOCK
+    wide, shift_lam, shift = len(rows) <= dof, 0.0, None
     clear_until, recheck = 0, 0  # ticks k < clear_until: bounds (-v_max, v_max), no clipping of q
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
     clock = time.perf_counter
@@ -263,7 +266,12 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
         e_task = e if all_rows else [e[i] for i in row_list]
         nxt = positions[k + 1]
         if dls:
-            sigma[k] = sigma_min = float(singular_values(J)[-1])
+            gram = J.dot(J.T)
+            if wide:
+                sigma_min = smallest_singular_value(J, gram, 2.0 * SINGULAR_REGION)
+            else:
+                sigma_min = float(singular_values(J)[-1])
+            sigma[k] = sigma_min
             lam_log[k] = lam = damping(sigma_min, floor=floor)
             gains = 1.0 / sigma_min if sigma_min > 0.0 else math.inf
             if lam > 0.0:
@@ -272,7 +280,10 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:  # the norm bound may bind
                 twist = sd * unit_twist
                 # Cholesky first: the SVD route (exactly as before) only where it may bind.
-                if feedforward_ratio(J, twist, lam, vmax) > TIME_SCALE_MARGIN * (1.0 - 1e-9):
+                if lam != shift_lam:  # lam^2 I, kept while lam is (the Panda's floor)
+                    shift_lam, shift = lam, lam * lam * np.eye(len(rows)) if lam else None
+                ratio = feedforward_ratio(J, gram, shift, twist, vmax)
+                if ratio > TIME_SCALE_MARGIN * (1.0 - 1e-9):
                     scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
             B = bounds[k]  # rate_bounds(q, limits, dt), written in place (as filled while clear)
             clear = k < clear_until

@@ -16,6 +16,7 @@ from core.cartesian.rate.steps import (
     feedforward_ratio,
     pose_error,
     singular_values,
+    smallest_singular_value,
     svd,
 )
 from core.cartesian.validate import validated_line
@@ -60,8 +61,31 @@ def test_feedforward_ratio_equals_the_svd_form(lam):
         U, S, Vt = np.linalg.svd(J, full_matrices=False)
         qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
         exact = np.max(np.abs(qd) / vmax)
-        assert feedforward_ratio(J, twist, lam, vmax) == pytest.approx(exact, rel=1e-11)
-    assert feedforward_ratio(np.zeros((6, 7)), np.ones(6), 0.0, vmax) == np.inf  # singular
+        shift = lam * lam * np.eye(6) if lam else None
+        ratio = feedforward_ratio(J, J @ J.T, shift, twist, vmax)
+        assert ratio == pytest.approx(exact, rel=1e-11)
+    zero = np.zeros((6, 7))
+    assert feedforward_ratio(zero, zero @ zero.T, None, np.ones(6), vmax) == np.inf  # singular
+
+
+def test_smallest_singular_value_by_the_gram_matrix():
+    """Within 1e-13 relative of numpy's SVD where the Gram route applies, and gesdd's value
+    exactly below the threshold (near a singularity, where the Gram route has no digit left)."""
+    rng = np.random.default_rng(8)
+    for shape in [(6, 7), (6, 6), (2, 2), (2, 7), (1, 3)]:
+        for _ in range(50):
+            J = rng.normal(size=shape) * rng.uniform(0.1, 2.0)
+            exact = np.linalg.svd(J, compute_uv=False)[-1]
+            got = smallest_singular_value(J, J @ J.T, 0.1)
+            if exact >= 0.11:
+                assert got == pytest.approx(exact, rel=1e-13), (shape, J.tolist())
+            elif exact < 0.09:
+                assert got == singular_values(J)[-1]
+    U, _, Vt = np.linalg.svd(rng.normal(size=(6, 7)), full_matrices=False)
+    for tiny in (1e-3, 1e-9, 0.0):
+        J = (U * [2.0, 1.5, 1.0, 0.8, 0.5, tiny]) @ Vt
+        assert smallest_singular_value(J, J @ J.T, 0.1) == singular_values(J)[-1]
+        assert singular_values(J)[-1] == pytest.approx(tiny, abs=1e-15)
 
 
 @pytest.mark.parametrize("seed", range(4))
