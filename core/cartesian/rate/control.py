@@ -165,8 +165,9 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     previous loop's within 1e-12, iterations exactly): arrays preallocated for the run and written
     in place (rate bounds, rates, next positions); rate bounds left at the velocity limits and
     next positions unclipped over the ticks ``clear_ticks`` shows no position limit can bind; setpoints tabulated per block of ticks while
-    the clock runs at rate 1; pose error, damping and path clock in Python floats; singular values
-    by LAPACK's gesdd without numpy's wrapper; the path-clock rate skipped where a norm bound, then
+    the clock runs at rate 1; pose error, damping and path clock in Python floats; the smallest
+    singular value from syev on the Gram matrix ``J J^T`` (gesdd near singularities, both without
+    numpy's wrapper); the path-clock rate skipped where a norm bound, then
     a Cholesky solve, keep it at 1; one OSQP workspace updated in place; active-bound flags and the
     first pinned joint from the stored arrays after the loop.
     """

@@ -1,6 +1,6 @@
 """The pieces of a resolved-rate tick around the QP (``core.cartesian.rate.control`` runs them):
-singular values by LAPACK without numpy's per-call wrapper, the path-clock rate, the pseudo-inverse
-step, and why a run stopped."""
+singular values by LAPACK without numpy's per-call wrapper, the span of ticks no position limit can
+reach, the path-clock rate, the pseudo-inverse step, and why a run stopped."""
 
 from __future__ import annotations
 
