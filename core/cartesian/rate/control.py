@@ -52,6 +52,7 @@ import numpy as np
 
 from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
+    SINGULAR_REGION,
     RateLimits,
     build_dls_qp,
     check_solver,
@@ -61,11 +62,13 @@ from core.cartesian.rate.qp import (
 from core.cartesian.rate.setpoint import LineSetpoint, setpoint_for
 from core.cartesian.rate.steps import (
     TIME_SCALE_MARGIN,
+    clear_ticks,
     feedforward_ratio,
     first_limit,
     pinv_step,
     pose_error,
     singular_values,
+    smallest_singular_value,
     stuck,
     svd,
     time_scale,
@@ -98,6 +101,8 @@ MAX_TICKS = 1_000_000
 ACTIVE_TOLERANCE = 1e-6
 """[rad/s] A rate this close to its bound counts as an active limit."""
 _CHECK_EVERY = 256
+_RECHECK = 16
+"""Ticks between looks for the clear span (``clear_ticks``) while a joint is near a position limit."""
 _FIRST_BLOCK, _BLOCK = 16, 1024
 """Setpoints tabulated per block of ticks: the first after a slowed tick, and the most (doubling)."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
@@ -158,9 +163,11 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
 
     The loop keeps per-tick work to what each tick needs (issue 19, P5; every output equal to the
     previous loop's within 1e-12, iterations exactly): arrays preallocated for the run and written
-    in place (rate bounds, rates, next positions); setpoints tabulated per block of ticks while
-    the clock runs at rate 1; pose error, damping and path clock in Python floats; singular values
-    by LAPACK's gesdd without numpy's wrapper; the path-clock rate skipped where a norm bound, then
+    in place (rate bounds, rates, next positions); rate bounds left at the velocity limits and
+    next positions unclipped over the ticks ``clear_ticks`` shows no position limit can bind; setpoints tabulated per block of ticks while
+    the clock runs at rate 1; pose error, damping and path clock in Python floats; the smallest
+    singular value from syev on the Gram matrix ``J J^T`` (gesdd near singularities, both without
+    numpy's wrapper); the path-clock rate skipped where a norm bound, then
     a Cholesky solve, keep it at 1; one OSQP workspace updated in place; active-bound flags and the
     first pinned joint from the stored arrays after the loop.
     """
@@ -206,7 +213,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
 
     n, dof = total + 1, robot.dof
     positions, rates = np.zeros((n, dof)), np.zeros((n, dof))
-    bounds = np.zeros((n if dls else 0, 2, dof))  # (lower, upper) rate bounds of each step
+    bounds = np.empty((n if dls else 0, 2, dof))  # (lower, upper) rate bounds of each step,
+    bounds[:, 0], bounds[:, 1] = -vmax, vmax  # as they are while no position limit is in reach
     track_p, track_o = np.zeros(n), np.zeros(n)
     s_log, sigma, lam_log, scale = np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n)
     its, times = np.zeros(n, dtype=np.int64), np.zeros(n)
@@ -215,6 +223,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     positions[0] = task.q_start
     q = positions[0]
     nominal_clock, block_at, block_end, block_size = True, 0, 0, _FIRST_BLOCK
+    wide, shift_lam, shift = len(rows) <= dof, 0.0, None
+    clear_until, recheck = 0, 0  # ticks k < clear_until: bounds (-v_max, v_max), no clipping of q
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
     clock = time.perf_counter
     for k in range(n):
@@ -257,7 +267,12 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
         e_task = e if all_rows else [e[i] for i in row_list]
         nxt = positions[k + 1]
         if dls:
-            sigma[k] = sigma_min = float(singular_values(J)[-1])
+            gram = J.dot(J.T)
+            if wide:
+                sigma_min = smallest_singular_value(J, gram, 2.0 * SINGULAR_REGION)
+            else:
+                sigma_min = float(singular_values(J)[-1])
+            sigma[k] = sigma_min
             lam_log[k] = lam = damping(sigma_min, floor=floor)
             gains = 1.0 / sigma_min if sigma_min > 0.0 else math.inf
             if lam > 0.0:
@@ -266,13 +281,21 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:  # the norm bound may bind
                 twist = sd * unit_twist
                 # Cholesky first: the SVD route (exactly as before) only where it may bind.
-                if feedforward_ratio(J, twist, lam, vmax) > TIME_SCALE_MARGIN * (1.0 - 1e-9):
+                if lam != shift_lam:  # lam^2 I, kept while lam is (the Panda's floor)
+                    shift_lam, shift = lam, lam * lam * np.eye(len(rows)) if lam else None
+                ratio = feedforward_ratio(J, gram, shift, twist, vmax)
+                if ratio > TIME_SCALE_MARGIN * (1.0 - 1e-9):
                     scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
-            B = bounds[k]  # rate_bounds(q, limits, dt), written in place
-            np.subtract(position_box, q, out=B)
-            np.divide(B, dt, out=B)
-            np.maximum(B, low_v, out=B)
-            np.minimum(B, vmax, out=B)
+            B = bounds[k]  # rate_bounds(q, limits, dt), written in place (as filled while clear)
+            clear = k < clear_until
+            if not clear:
+                np.subtract(position_box, q, out=B)
+                np.divide(B, dt, out=B)
+                if k >= recheck:
+                    clear_until = k + 1 + clear_ticks(B, vmax, n)
+                    recheck = clear_until if clear_until > k + 1 else k + _RECHECK
+                np.maximum(B, low_v, out=B)
+                np.minimum(B, vmax, out=B)
             V = np.array([kappa * (sd * u) + gain * x for u, x in zip(units, e_task, strict=False)])
             start = clock()
             if qp is not None:
@@ -297,8 +320,9 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             fallbacks += fell_back
             np.multiply(rates[k], dt, out=nxt)
             np.add(q, nxt, out=nxt)
-            np.maximum(nxt, lo_q, out=nxt)
-            np.minimum(nxt, hi_q, out=nxt)
+            if not clear:  # (a clear tick's q + qd dt is more than v_max dt inside the limits)
+                np.maximum(nxt, lo_q, out=nxt)
+                np.minimum(nxt, hi_q, out=nxt)
         else:
             kappa = 1.0
             U, S, Vt = svd(J)

@@ -9,8 +9,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from core.cartesian.rate.control import nominal_timing
+from core.cartesian.rate.qp import RateLimits, rate_bounds
 from core.cartesian.rate.setpoint import LineSetpoint, PathSetpoint
-from core.cartesian.rate.steps import feedforward_ratio, pose_error, singular_values, svd
+from core.cartesian.rate.steps import (
+    clear_ticks,
+    feedforward_ratio,
+    pose_error,
+    singular_values,
+    smallest_singular_value,
+    svd,
+)
 from core.cartesian.validate import validated_line
 from core.geometry import so3
 from tests.core.cartesian.rate.scenarios import SCENARIOS
@@ -53,8 +61,71 @@ def test_feedforward_ratio_equals_the_svd_form(lam):
         U, S, Vt = np.linalg.svd(J, full_matrices=False)
         qd = Vt.T @ (S / (S * S + lam * lam) * (U.T @ twist))
         exact = np.max(np.abs(qd) / vmax)
-        assert feedforward_ratio(J, twist, lam, vmax) == pytest.approx(exact, rel=1e-11)
-    assert feedforward_ratio(np.zeros((6, 7)), np.ones(6), 0.0, vmax) == np.inf  # singular
+        shift = lam * lam * np.eye(6) if lam else None
+        ratio = feedforward_ratio(J, J @ J.T, shift, twist, vmax)
+        assert ratio == pytest.approx(exact, rel=1e-11)
+    zero = np.zeros((6, 7))
+    assert feedforward_ratio(zero, zero @ zero.T, None, np.ones(6), vmax) == np.inf  # singular
+
+
+def test_smallest_singular_value_by_the_gram_matrix():
+    """Within 1e-13 relative of numpy's SVD where the Gram route applies, and gesdd's value
+    exactly below the threshold (near a singularity, where the Gram route has no digit left)."""
+    rng = np.random.default_rng(8)
+    for shape in [(6, 7), (6, 6), (2, 2), (2, 7), (1, 3)]:
+        for _ in range(50):
+            J = rng.normal(size=shape) * rng.uniform(0.1, 2.0)
+            exact = np.linalg.svd(J, compute_uv=False)[-1]
+            got = smallest_singular_value(J, J @ J.T, 0.1)
+            if exact >= 0.11:
+                assert got == pytest.approx(exact, rel=1e-13), (shape, J.tolist())
+            elif exact < 0.09:
+                assert got == singular_values(J)[-1]
+    U, _, Vt = np.linalg.svd(rng.normal(size=(6, 7)), full_matrices=False)
+    for tiny in (1e-3, 1e-9, 0.0):
+        J = (U * [2.0, 1.5, 1.0, 0.8, 0.5, tiny]) @ Vt
+        assert smallest_singular_value(J, J @ J.T, 0.1) == singular_values(J)[-1]
+        assert singular_values(J)[-1] == pytest.approx(tiny, abs=1e-15)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_clear_ticks_keep_the_bounds_at_the_velocity_limits(seed):
+    """For every tick ``clear_ticks`` promises, whatever rates within the bounds the joints take
+    (random, or full speed towards the nearer limit), ``rate_bounds`` is exactly the velocity
+    limits and ``q + qd dt`` stays inside the position limits; and the count is within two ticks
+    of where full speed makes a bound tighter."""
+    rng = np.random.default_rng(seed)
+    dof, most = 7, 10**6
+    for case in range(200):
+        lo = rng.uniform(-3.0, -0.5, dof)
+        limits = RateLimits(
+            np.stack([lo, lo + rng.uniform(0.5, 6.0, dof)], axis=1), rng.uniform(0.5, 3.0, dof)
+        )
+        vmax, dt = limits.velocity, float(rng.choice([1e-3, 4e-3, 0.05]))
+        span = limits.position[:, 1] - lo
+        gaps = np.minimum(rng.uniform(0.0, 40.0, dof) * vmax * dt, span / 3)  # to the nearer limit
+        side = rng.integers(0, 2, dof)
+        q = np.where(side == 0, lo + gaps, limits.position[:, 1] - gaps)
+        raw = (limits.position.T - q) / dt
+        count = clear_ticks(raw, vmax, most)
+        toward = np.where(side == 0, -vmax, vmax)
+        for worst in (True, False):
+            x = q.copy()
+            for i in range(1, count + 1):
+                x += (toward if worst else rng.uniform(-vmax, vmax)) * dt
+                lower, upper = rate_bounds(x, limits, dt)
+                assert np.array_equal(lower, -vmax) and np.array_equal(upper, vmax), (case, i)
+                assert np.all(x + toward * dt > lo) and np.all(
+                    x + toward * dt < limits.position[:, 1]
+                )
+        x = q + (count + 2) * toward * dt  # full speed: a bound is tighter within two more ticks
+        lower, upper = rate_bounds(x, limits, dt)
+        assert np.any(lower > -vmax) or np.any(upper < vmax), (case, count)
+    raw = np.array([[-np.inf, -5.0], [np.inf, 5.0]])
+    assert clear_ticks(raw, np.ones(2), most) == 3
+    assert clear_ticks(np.array([[-np.inf], [np.inf]]), np.ones(1), most) == most
+    assert clear_ticks(np.array([[np.nan], [1e9]]), np.ones(1), most) == 0
+    assert clear_ticks(np.array([[-2.5], [1e9]]), np.ones(1), most) == 0  # within 3 ticks
 
 
 def test_tabulated_setpoints_equal_the_per_tick_ones():
