@@ -1538,6 +1538,7 @@
         setStatus('error', `POST ${path} → ${res.status} ${problem.code || ''}`);
         renderCompareTable([]);
         renderCompareplot([], tolerance, `compare failed: ${problem.code || res.status}`);
+        renderCompareClearance([], task);
         return;
       }
       renderProblem(null);
@@ -1547,6 +1548,7 @@
         `${results.length - failed} of ${results.length} methods planned the line`);
       renderCompareTable(results);
       renderCompareplot(results, tolerance);
+      renderCompareClearance(results, task);
     } catch (e) {
       pageError(e);
     } finally {
@@ -1644,6 +1646,41 @@
       layout.xaxis.anchor = 'y2';
     }
     draw('plot-compare', traces, layout, `${robotName()}-compare-deviation`);
+  }
+
+  /**
+   * Every method's smallest distance over time (``diagnostics.clearance_profile`` of each row) with
+   * the requested ``clearance`` dashed, in ``card-compare-clearance``: shown only when the task
+   * carried an environment and some row has a profile.
+   */
+  function renderCompareClearance(results, task) {
+    const card = $('card-compare-clearance');
+    const env = task && task.environment;
+    const rows = results.map((r, i) => [r, COLORS[i % COLORS.length]]).filter(([r]) => {
+      const prof = r.diagnostics && r.diagnostics.clearance_profile;
+      return prof && prof.time_from_start && prof.time_from_start.length;
+    });
+    card.hidden = !(env && rows.length);
+    if (card.hidden) return null;
+    const clearance = env.clearance || 0;
+    let tEnd = 0;
+    const traces = rows.map(([r, color]) => {
+      const prof = r.diagnostics.clearance_profile;
+      tEnd = Math.max(tEnd, prof.time_from_start[prof.time_from_start.length - 1]);
+      const min = r.diagnostics.min_clearance;
+      return { type: 'scatter', mode: 'lines', x: prof.time_from_start, y: prof.value,
+        name: min !== undefined && min !== null ? `${r.method} (min ${fmt(min, 4)} m)` : r.method,
+        line: { color: color, width: 2 }, meta: { role: 'clearance-profile', method: r.method },
+        hovertemplate: `${r.method}: %{y:.4f} m<extra>t=%{x:.3f} s</extra>` };
+    });
+    traces.push({ type: 'scatter', mode: 'lines', name: `clearance ${fmt(clearance)} m`,
+      x: [0, tEnd], y: [clearance, clearance],
+      line: { color: FAIL_COLOR, width: 1.5, dash: 'dash' }, meta: { role: 'clearance' } });
+    return draw('plot-compare-clearance', traces, baseLayout({
+      xaxis: axis('time [s]'), yaxis: axis('distance [m]'),
+      legend: { orientation: 'h', y: -0.3, yanchor: 'top', font: { size: 11 } },
+      margin: { l: 64, r: 16, t: 16, b: 40 },
+    }), `${robotName()}-compare-clearance`);
   }
 
   // ---------------------------------------------------------------- presets

@@ -849,3 +849,37 @@ def test_joint_and_program_views_plot_the_clearance_over_time(server: str, page:
     assert page.find_element(By.ID, "card-program-clearance").is_displayed()
     _clearance_plot(page, server, "plot-program-clearance")
     assert _severe_console_errors(page) == []
+
+
+def test_compare_plots_every_methods_clearance_over_time(server: str, page: Any) -> None:
+    _preset(page, "ur5-line")
+    page.find_element(By.ID, "env-add-sphere").click()
+    z = page.find_element(By.ID, "env-pos-0-2")
+    z.clear()
+    z.send_keys(str(float(z.get_attribute("value") or 0.0) + 1.0))
+    clearance = page.find_element(By.ID, "env-clearance")
+    clearance.clear()
+    clearance.send_keys("0.01")
+    page.find_element(By.ID, "env-radius-0").click()  # blur: the change event
+    _click_and_wait(page, "c-compare")
+    path, request = _last_request(page)
+    assert path == "/v1/compare" and request["task"]["environment"]["clearance"] == 0.01
+    status, body = _post(server, path, request)
+    assert status == 200, body
+    assert page.find_element(By.ID, "card-compare-clearance").is_displayed()
+    traces = _traces(page, "plot-compare-clearance")
+    role = [(t["meta"] or {}).get("role") for t in traces]
+    drawn = {
+        t["meta"]["method"]: t
+        for t, r in zip(traces, role, strict=True)
+        if r == "clearance-profile"
+    }
+    planned = [r for r in body["results"] if r["ok"]]
+    assert planned and sorted(drawn) == sorted(r["method"] for r in planned)
+    for r in planned:
+        prof = r["diagnostics"]["clearance_profile"]
+        assert drawn[r["method"]]["n"] == len(prof["value"])
+        np.testing.assert_allclose(drawn[r["method"]]["y"], prof["value"][:5])
+    dashed = [t for t, r in zip(traces, role, strict=True) if r == "clearance"]
+    assert len(dashed) == 1 and dashed[0]["y"] == [0.01, 0.01]
+    assert _severe_console_errors(page) == []
