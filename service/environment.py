@@ -21,7 +21,7 @@ import numpy as np
 from core.errors import Collision, InputError
 from core.trajectory import Trajectory
 from robots import registry
-from robots.collision import CollisionChecker, Obstacle, robot_setup
+from robots.collision import CollisionChecker, Obstacle, PathCheck, robot_setup
 from robots.model import Robot
 from service.schemas.environment import Environment, Halfspace
 
@@ -122,6 +122,16 @@ def checker(
     return check if check.n_pairs else None
 
 
+def _clearance(result: PathCheck) -> dict[str, Any]:
+    """``min_clearance`` [m] and ``closest`` (pair names, time [s]) of a continuous check."""
+    return {
+        "min_clearance": float(result.min_clearance),
+        "closest": None
+        if result.closest is None
+        else {"links": list(result.closest[0]), "time_from_start": float(result.closest[1])},
+    }
+
+
 def guard(
     robot: Robot,
     env: Environment | None,
@@ -161,12 +171,7 @@ def guard(
                 extra={"time_from_start": t, "links": [a, b], "distance": d, "at": which},
             )
     result = check.check_path(times, qs)
-    diag: dict[str, Any] = {
-        "min_clearance": float(result.min_clearance),
-        "closest": None
-        if result.closest is None
-        else {"links": list(result.closest[0]), "time_from_start": float(result.closest[1])},
-    }
+    diag: dict[str, Any] = _clearance(result)
     if check.geometry.unchecked_links:
         diag["collision_warnings"] = [
             f"link {n} has only mesh collision geometry: it is not checked"
@@ -193,6 +198,7 @@ def guard(
         trajectory.joint_names,
     )
     fraction = float(times[k - 1] / times[-1]) if times[-1] > 0 else 0.0
+    diag.update(_clearance(check.check_path(prefix.times, prefix.positions)))  # the prefix's own
     diag["clearance_profile"] = clearance_profile(check, prefix)
     return Guarded(prefix, diag, err, fraction)
 
@@ -304,10 +310,14 @@ def guard_program(result: Any, robot: Robot, body: Any) -> Any:
     seg = segment_at(float(g.failure.extra["time_from_start"]))
     g.failure.extra["segment"] = None if seg is None else seg.index
     n = max(len(result.segments), 1)
+    # like the program's own partial plans: the segments done plus the share of the last one
+    last = float(g.trajectory.times[-1])
+    seg_last, s_last = segment_at(last), s_at(last)
+    done = 0.0 if seg_last is None else (seg_last.index + (s_last or 0.0)) / n
     return dataclasses.replace(
         result,
         trajectory=g.trajectory,
-        fraction=min(float(result.fraction), (0 if seg is None else seg.index) / n),
+        fraction=min(float(result.fraction), done),
         failure=g.failure,
         diagnostics=diagnostics,
     )

@@ -21,6 +21,7 @@ from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
 from service import deps, environment
+from service.convert.cartesian import failure_body
 from service.encoding import (
     base_diagnostics,
     check_finite,
@@ -123,13 +124,7 @@ def result_body(
     diag.update({k: _finite(v) for k, v in result.diagnostics.items()})
     if result.failure is not None:
         err: PlanningError = result.failure
-        diag["failure"] = {
-            "code": err.code,
-            "title": err.title,
-            "detail": err.detail,
-            "segment": err.extra.get("segment"),
-            "s": None if err.s is None else round(float(err.s), 6),
-        }
+        diag["failure"] = {"segment": err.extra.get("segment"), **failure_body(err)}
 
     def stamp(t: float) -> Any:
         return ros_durations(np.array([t]))[0] if time_format == "ros" else t
