@@ -1,0 +1,69 @@
+"""API.md promises checked line by line (round 1): sampling (``sample_period`` spacing with the last
+point at ``duration``), and resolved-rate plans of short lines from home within the acceleration
+limits (they failed ``joint_rate_limit`` at 1.6e3x from a 1.6e-7 s last interval)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from fastapi.testclient import TestClient
+
+from core.trajectory import MIN_LAST_INTERVAL, sample_times
+from robots import registry
+from service.schemas.common import Pose
+
+UR5 = registry.get("ur5")
+
+
+@pytest.mark.parametrize("extra", [0.0, 1e-10, 1.6e-7, 9e-7, 1.1e-6, 0.0004, 0.0009999])
+@pytest.mark.parametrize("period", [0.01, 0.001, 0.3])
+def test_sample_period_grid(period: float, extra: float) -> None:
+    """0, period, 2 period, ..., duration: every interval is the period except the last, which is
+    in [MIN_LAST_INTERVAL, period + MIN_LAST_INTERVAL)."""
+    duration = 37 * period + extra
+    t = sample_times(duration, sample_period=period)
+    assert t[0] == 0.0 and t[-1] == duration
+    gaps = np.diff(t)
+    np.testing.assert_allclose(gaps[:-1], period, rtol=0, atol=1e-12)
+    assert MIN_LAST_INTERVAL <= gaps[-1] < period + MIN_LAST_INTERVAL
+    assert len(t) == (38 if extra < MIN_LAST_INTERVAL else 39)
+
+
+def tool_position(q) -> np.ndarray:
+    """The tool point by pinocchio directly (not through the service's FK)."""
+    model = UR5.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
+    return data.oMf[model.getFrameId(UR5.tip_frame)].translation.copy()
+
+
+@pytest.mark.parametrize("method", ["resolved_rate", "resolved_rate_dls"])
+@pytest.mark.parametrize("offset", [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.2]])
+def test_resolved_rate_follows_a_short_line_within_the_limits(
+    client: TestClient, method: str, offset: list[float]
+) -> None:
+    T = UR5.fk(UR5.home)
+    p0 = T[:3, 3].copy()
+    T[:3, 3] += offset
+    body = {
+        "robot": "ur5",
+        "method": method,
+        "start": {"positions": UR5.home.tolist()},
+        "goal": {"pose": Pose.from_matrix(T).model_dump()},
+    }
+    answer = client.post("/v1/trajectories/cartesian", json=body)
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    t = np.array([p["time_from_start"] for p in doc["points"]])
+    q = np.array([p["positions"] for p in doc["points"]])
+    a = np.array([p["accelerations"] for p in doc["points"]])
+    assert np.diff(t).min() >= MIN_LAST_INTERVAL
+    assert np.abs(a).max(axis=0) == pytest.approx(doc["diagnostics"]["peak_acceleration"], abs=1e-9)
+    assert np.all(np.abs(a) <= UR5.acceleration_limits * (1 + 1e-6))
+    # every returned point on the line (within the default 1 mm), the last at the goal
+    axis = np.asarray(offset) / np.linalg.norm(offset)
+    for qi in q:
+        d = tool_position(qi) - p0
+        assert np.linalg.norm(d - (d @ axis) * axis) <= 1e-3
+    assert np.linalg.norm(tool_position(q[-1]) - T[:3, 3]) <= 1e-3
