@@ -67,3 +67,47 @@ def test_resolved_rate_follows_a_short_line_within_the_limits(
         d = tool_position(qi) - p0
         assert np.linalg.norm(d - (d @ axis) * axis) <= 1e-3
     assert np.linalg.norm(tool_position(q[-1]) - T[:3, 3]) <= 1e-3
+
+
+METHODS = [
+    "sampled",
+    "bounded_deviation",
+    "bounded_deviation_nlp",
+    "resolved_rate",
+    "resolved_rate_dls",
+]
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_allow_partial_answers_the_reachable_prefix_for_every_method(
+    client: TestClient, method: str
+) -> None:
+    """A line 3 m out of the UR5's reach: 422 with a located ``code`` and ``s``, and with
+    ``allow_partial`` a 200 prefix on the line within the limits (the rate methods were 422
+    ``joint_rate_limit``: their ticks up to the singularity accelerate past the limits)."""
+    T = UR5.fk(UR5.home)
+    p0 = T[:3, 3].copy()
+    T[:3, 3] += [3.0, 0.0, 0.0]
+    body = {
+        "robot": "ur5",
+        "method": method,
+        "start": {"positions": UR5.home.tolist()},
+        "goal": {"pose": Pose.from_matrix(T).model_dump()},
+    }
+    err = client.post("/v1/trajectories/cartesian", json=body).json()
+    assert err["status"] == 422 and err["code"] in ("unreachable", "branch_flip", "singularity")
+    assert 0.0 < err["s"] < 1.0
+    answer = client.post("/v1/trajectories/cartesian", json={**body, "allow_partial": True})
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    diag = doc["diagnostics"]
+    assert 0.0 < diag["fraction"] < 1.0
+    assert diag["failure"]["code"] == err["code"] and diag["fraction"] <= diag["failure"]["s"]
+    q = np.array([p["positions"] for p in doc["points"]])
+    a = np.array([p["accelerations"] for p in doc["points"]])
+    assert np.all(np.abs(a) <= UR5.acceleration_limits * (1 + 1e-6))
+    for qi in q:
+        d = tool_position(qi) - p0
+        assert abs(d[1]) <= 1e-3 and abs(d[2]) <= 1e-3 and -1e-3 <= d[0] <= 3.0
+    reached = tool_position(q[-1])[0] - p0[0]
+    assert reached == pytest.approx(3.0 * diag["fraction"], abs=2e-3)
