@@ -1,0 +1,139 @@
+"""API.md "Motion programs" checked line by line: blend spheres that overlap (any two, not only
+neighbours), segment ends and blend window boundaries as returned points, LIN/CIRC keeping the
+start's configuration label, CIRC about a centre on its circle, PTP to a pose with a label. FK by
+pinocchio directly, not through the service."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from fastapi.testclient import TestClient
+
+from robots import registry
+from service.schemas.common import Pose
+from tests.service.helpers import problem
+
+UR5 = registry.get("ur5")
+HOME = UR5.home.tolist()
+URL = "/v1/trajectories/program"
+
+
+def tool_position(q) -> np.ndarray:
+    model = UR5.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
+    return data.oMf[model.getFrameId(UR5.tip_frame)].translation.copy()
+
+
+P0 = tool_position(UR5.home)
+
+
+def at(offset) -> np.ndarray:
+    """The tool position P0 + offset [m]."""
+    return P0 + np.asarray(offset, dtype=float)
+
+
+def pose(offset) -> dict[str, Any]:
+    T = UR5.fk(UR5.home)
+    T[:3, 3] += offset
+    return Pose.from_matrix(T).model_dump()
+
+
+def lin(offset, r: float = 0.0) -> dict[str, Any]:
+    return {"type": "lin", "goal": {"pose": pose(offset)}, "blend_radius": r}
+
+
+def program(segments: list[dict[str, Any]], **extra: Any) -> dict[str, Any]:
+    return {"robot": "ur5", "start": {"positions": HOME}, "segments": segments, **extra}
+
+
+def test_blend_spheres_of_non_neighbours_that_overlap_are_422(client: TestClient) -> None:
+    """Goals 0 and 2 are 0.03 m apart, radii 0.05 m each (every radius is under half of its
+    neighbours' 0.2 m lengths): 422 at segment 2's blend_radius (was 200)."""
+    segs = [
+        lin([0.2, 0, 0], 0.05),
+        lin([0.2, 0.2, 0], 0.05),
+        lin([0.17, 0, 0], 0.05),
+        lin([0, 0, 0]),
+    ]
+    err = problem(client.post(URL, json=program(segs)), 422, "validation")
+    assert err["errors"][0]["loc"] == ["body", "segments", 2, "blend_radius"]
+    segs[2]["blend_radius"] = 0.0  # no sphere at goal 2: nothing overlaps
+    assert client.post(URL, json=program(segs)).status_code == 200
+    segs[2]["blend_radius"] = 0.025  # 0.05 + 0.025 < 0.03 + 0.05: apart, fine
+    segs[2]["goal"]["pose"] = pose([0.12, 0, 0])  # 0.08 m from goal 0
+    assert client.post(URL, json=program(segs)).status_code == 200
+
+
+@pytest.mark.parametrize("sampling", [{"samples": 7}, {"sample_period": 0.13}, {}])
+def test_segment_ends_and_blend_boundaries_are_returned_points(
+    client: TestClient, sampling: dict[str, Any]
+) -> None:
+    segs = [
+        lin([0.1, 0, 0], 0.03),
+        lin([0.1, 0.1, 0]),
+        {"type": "ptp", "goal": {"positions": HOME}},
+    ]
+    answer = client.post(URL, json=program(segs, **sampling))
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    t = np.array([p["time_from_start"] for p in doc["points"]])
+    q = np.array([p["positions"] for p in doc["points"]])
+    assert t[0] == 0.0 and np.all(np.diff(t) > 0)
+    by_time = dict(zip(t.tolist(), q, strict=True))
+    s0, s1, s2 = doc["segments"]
+    for edge in (s0["blend_out"]["start_time"], s0["blend_out"]["end_time"], s1["end_time"]):
+        assert edge in by_time
+    assert s2["end_time"] == t[-1] == doc["diagnostics"]["duration"]
+    # the unblended LIN end and the last PTP end are reached exactly
+    assert np.linalg.norm(tool_position(by_time[s1["end_time"]]) - at([0.1, 0.1, 0])) < 1e-9
+    np.testing.assert_allclose(q[-1], HOME, atol=1e-12)
+    # the blend boundaries lie on the blend sphere about goal 0 (r = 0.03 m)
+    for edge in (s0["blend_out"]["start_time"], s0["blend_out"]["end_time"]):
+        d = np.linalg.norm(tool_position(by_time[edge]) - at([0.1, 0, 0]))
+        assert d == pytest.approx(0.03, abs=1e-3)
+    np.testing.assert_allclose(doc["points"][-1]["velocities"], 0.0, atol=1e-12)
+
+
+def test_lin_and_circ_keep_the_configuration_of_their_start(client: TestClient) -> None:
+    segs = [
+        lin([0.3, 0.2, -0.1]),
+        {
+            "type": "circ",
+            "goal": {"pose": pose([0.1, 0.3, 0])},
+            "interim": at([0.25, 0.3, 0]).tolist(),
+        },
+    ]
+    answer = client.post(URL, json=program(segs))
+    assert answer.status_code == 200, answer.text
+    q = np.array([p["positions"] for p in answer.json()["points"]])
+    assert set(UR5.configurations(q)) == {UR5.configuration(UR5.home)}
+
+
+def test_circ_about_a_center_stays_on_its_circle(client: TestClient) -> None:
+    """Start P0, goal P0 + (0.1, 0.1, 0), centre P0 + (0, 0.1, 0): a quarter circle of radius 0.1 m
+    in the plane z = P0.z (the shorter arc), within the default 1 mm tolerance at every point."""
+    center = at([0.0, 0.1, 0.0])
+    seg = {"type": "circ", "goal": {"pose": pose([0.1, 0.1, 0])}, "center": center.tolist()}
+    answer = client.post(URL, json=program([seg]))
+    assert answer.status_code == 200, answer.text
+    points = np.array([tool_position(p["positions"]) for p in answer.json()["points"]])
+    assert np.abs(np.linalg.norm(points - center, axis=1) - 0.1).max() <= 1e-3
+    assert np.abs(points[:, 2] - P0[2]).max() <= 1e-3
+    # the shorter arc: x never negative, y never above the centre's
+    rel = points - P0
+    assert rel[:, 0].min() >= -1e-3 and rel[:, 1].max() <= 0.1 + 1e-3
+    assert np.linalg.norm(points[-1] - at([0.1, 0.1, 0])) < 1e-9
+
+
+@pytest.mark.parametrize("label", ["right-up-noflip", "left-up-flip", "left-down-flip"])
+def test_ptp_to_a_pose_with_a_configuration(client: TestClient, label: str) -> None:
+    seg = {"type": "ptp", "goal": {"pose": pose([0.1, 0, 0]), "configuration": label}}
+    answer = client.post(URL, json=program([seg]))
+    assert answer.status_code == 200, answer.text
+    q = answer.json()["points"][-1]["positions"]
+    assert UR5.configuration(np.asarray(q)) == label
+    assert np.linalg.norm(tool_position(q) - at([0.1, 0, 0])) < 1e-9
