@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from core.cartesian.check import finish
 from core.errors import Collision, InputError
 from core.trajectory import Trajectory
 from robots import registry
@@ -231,13 +232,25 @@ def guard_cartesian(
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)
     last = float(g.trajectory.times[-1])
+    # the prefix measured anew (deviation, singular values), so every diagnostic describes it
+    prefix = finish(task, dataclasses.replace(result, trajectory=g.trajectory))
     return dataclasses.replace(
-        result,
-        trajectory=g.trajectory,
+        prefix,
         fraction=min(float(result.fraction), s_at(last)),
         failure=g.failure,
         diagnostics=diagnostics,
     )
+
+
+def _clipped(segment: Any, last: float) -> Any:
+    """A program segment's windows cut at ``last`` [s], the end of a partial answer (its blend out
+    dropped when it had not begun by then, else ended there)."""
+    if segment.end_time <= last and (segment.blend_out is None or segment.blend_out[1] <= last):
+        return segment
+    blend = segment.blend_out
+    if blend is not None:
+        blend = None if blend[0] >= last else (blend[0], last)
+    return dataclasses.replace(segment, end_time=min(segment.end_time, last), blend_out=blend)
 
 
 def inline_urdf(robot_ref: Any) -> str | None:
@@ -310,13 +323,15 @@ def guard_program(result: Any, robot: Robot, body: Any) -> Any:
     seg = segment_at(float(g.failure.extra["time_from_start"]))
     g.failure.extra["segment"] = None if seg is None else seg.index
     n = max(len(result.segments), 1)
-    # like the program's own partial plans: the segments done plus the share of the last one
     last = float(g.trajectory.times[-1])
+    kept = tuple(_clipped(s, last) for s in result.segments if s.start_time < last or s.index == 0)
+    # like the program's own partial plans: the segments done plus the share of the last one
     seg_last, s_last = segment_at(last), s_at(last)
     done = 0.0 if seg_last is None else (seg_last.index + (s_last or 0.0)) / n
     return dataclasses.replace(
         result,
         trajectory=g.trajectory,
+        segments=kept,
         fraction=min(float(result.fraction), done),
         failure=g.failure,
         diagnostics=diagnostics,

@@ -64,6 +64,13 @@ def test_a_partial_plan_reports_the_clearance_of_its_prefix(client: TestClient, 
     assert failure["distance"] <= 0 and failure["time_from_start"] > 0
     times = np.array([p["time_from_start"] for p in doc["points"]])
     assert diag["duration"] == pytest.approx(times[-1], abs=1e-12)
+    velocities = np.array([p["velocities"] for p in doc["points"]])
+    np.testing.assert_allclose(np.abs(velocities).max(axis=0), diag["peak_velocity"], atol=1e-12)
+    if kind == "cartesian":  # measured on the prefix, not the whole plan
+        assert diag["deviation_profile"]["time_from_start"][-1] == times[-1]
+    else:  # no segment window past the end of the answer
+        assert doc["segments"][-1]["end_time"] == times[-1]
+        assert all(s["end_time"] <= times[-1] for s in doc["segments"])
     assert 0.0 <= diag["closest"]["time_from_start"] <= times[-1] + 1e-12
     # an independent distance query at every returned point of the prefix
     distances = [
