@@ -136,9 +136,13 @@ def report(
     fraction = 1.0
     if geo.failure is not None:
         n = len(task.segments)
-        fraction = (geo.failed_segment + min(max(geo.failed_s, 0.0), 1.0)) / n
-        if geo.failed_s >= 1.0:
-            fraction = (geo.failed_segment + 1.0) / n
+        # the segments before the failing one, plus the share of it that is returned (none of a
+        # PTP or of a segment whose start already fails; a LIN/CIRC up to where it got)
+        failed = planned.get(geo.failed_segment)
+        share = 0.0
+        if failed is not None and failed.s is not None and len(failed.s):
+            share = min(max(float(failed.s[-1]), 0.0), 1.0)
+        fraction = (geo.failed_segment + share) / n
         warnings.insert(0, f"planned {fraction:.1%} of the program: {geo.failure.detail}")
     diagnostics = {
         "max_position_deviation": worst_p,

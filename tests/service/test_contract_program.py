@@ -137,3 +137,26 @@ def test_ptp_to_a_pose_with_a_configuration(client: TestClient, label: str) -> N
     q = answer.json()["points"][-1]["positions"]
     assert UR5.configuration(np.asarray(q)) == label
     assert np.linalg.norm(tool_position(q) - at([0.1, 0, 0])) < 1e-9
+
+
+@pytest.mark.parametrize("second", ["ptp", "lin"])
+def test_a_partial_program_counts_what_it_returns(client: TestClient, second: str) -> None:
+    """A reachable LIN, then a PTP to a pose 3 m out of reach (nothing of it can be returned:
+    fraction 1/2, was 1.0) or a LIN leaving the workspace (1/2 + half its s where it stops)."""
+    far = {"type": second, "goal": {"pose": pose([-0.6 if second == "lin" else -3.0, 0, 0])}}
+    body = program([lin([0.1, 0, 0]), far])
+    err = problem(client.post(URL, json=body), 422, "unreachable")
+    assert err["segment"] == 1
+    answer = client.post(URL, json={**body, "allow_partial": True})
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    diag = doc["diagnostics"]
+    assert diag["failure"]["code"] == "unreachable" and diag["failure"]["segment"] == 1
+    end = tool_position(doc["points"][-1]["positions"])
+    if second == "ptp":
+        assert diag["fraction"] == 0.5
+        assert np.linalg.norm(end - at([0.1, 0, 0])) < 1e-9
+    else:  # on the second line, at s = 2 fraction - 1 of it
+        s = 2 * diag["fraction"] - 1
+        assert 0.0 < s < err["s"] + 1e-6
+        assert np.linalg.norm(end - at([0.1 - 0.7 * s, 0, 0])) < 1e-3
