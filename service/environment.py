@@ -40,12 +40,15 @@ class Guarded:
             ``collision_warnings``); empty when nothing was checked.
         failure: The contact that cut the trajectory, or None.
         fraction: Share of the duration returned (1 without a contact).
+        warnings: What is not checked (mesh-only links; obstacles for a robot without collision
+            geometry), for the answer's ``diagnostics.warnings``.
     """
 
     trajectory: Trajectory
     diagnostics: dict[str, Any]
     failure: Collision | None = None
     fraction: float = 1.0
+    warnings: tuple[str, ...] = ()
 
 
 def obstacles(env: Environment) -> list[Obstacle]:
@@ -133,6 +136,22 @@ def _clearance(result: PathCheck) -> dict[str, Any]:
     }
 
 
+def unchecked_warnings(robot: Robot, env: Environment | None, urdf: str | None) -> tuple[str, ...]:
+    """Warnings for what the collision check cannot see: each link whose collision geometry is
+    mesh-only, and the obstacles of ``env`` when the robot has no collision geometry at all."""
+    geometry, _ = robot_setup(robot, urdf)
+    out = [
+        f"link {n} has only mesh collision geometry: it is not checked"
+        for n in geometry.unchecked_links
+    ]
+    if len(geometry.links) == 0 and env is not None and env.obstacles:
+        out.append(
+            "the robot has no collision geometry (no <collision> box, sphere or cylinder): the "
+            "environment's obstacles are not checked"
+        )
+    return tuple(out)
+
+
 def guard(
     robot: Robot,
     env: Environment | None,
@@ -155,8 +174,9 @@ def guard(
         field: Where the environment sits in the request (for validation errors).
     """
     check = checker(robot, env, urdf, field)
+    warnings = unchecked_warnings(robot, env, urdf)
     if check is None:
-        return Guarded(trajectory, {})
+        return Guarded(trajectory, {}, warnings=warnings)
     times, qs = trajectory.times, trajectory.positions
     ends = check.distances(qs[[0, -1]]) - check.threshold
     for row, which in ((0, "start"), (1, "goal")):
@@ -174,14 +194,11 @@ def guard(
     result = check.check_path(times, qs)
     diag: dict[str, Any] = _clearance(result)
     if check.geometry.unchecked_links:
-        diag["collision_warnings"] = [
-            f"link {n} has only mesh collision geometry: it is not checked"
-            for n in check.geometry.unchecked_links
-        ]
+        diag["collision_warnings"] = list(warnings)
     c = result.contact
     if c is None:
         diag["clearance_profile"] = clearance_profile(check, trajectory)
-        return Guarded(trajectory, diag)
+        return Guarded(trajectory, diag, warnings=warnings)
     s = None if s_at is None else s_at(c.time)
     err = Collision(
         f"{c.links[0]} comes within {c.distance:.4f} m of {c.links[1]} at t = {c.time:.4f} s",
@@ -201,7 +218,7 @@ def guard(
     fraction = float(times[k - 1] / times[-1]) if times[-1] > 0 else 0.0
     diag.update(_clearance(check.check_path(prefix.times, prefix.positions)))  # the prefix's own
     diag["clearance_profile"] = clearance_profile(check, prefix)
-    return Guarded(prefix, diag, err, fraction)
+    return Guarded(prefix, diag, err, fraction, warnings)
 
 
 def guard_cartesian(
@@ -229,6 +246,7 @@ def guard_cartesian(
         robot, env, traj, urdf=urdf, allow_partial=bool(task.allow_partial), s_at=s_at, field=field
     )
     diagnostics = {**result.diagnostics, **g.diagnostics}
+    result = dataclasses.replace(result, warnings=(*result.warnings, *g.warnings))
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)
     last = float(g.trajectory.times[-1])
@@ -318,6 +336,7 @@ def guard_program(result: Any, robot: Robot, body: Any) -> Any:
         err.extra["segment"] = None if seg is None else seg.index
         raise
     diagnostics = {**result.diagnostics, **g.diagnostics}
+    result = dataclasses.replace(result, warnings=(*result.warnings, *g.warnings))
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)
     seg = segment_at(float(g.failure.extra["time_from_start"]))

@@ -56,7 +56,12 @@ def joint_trajectory(
     )
     checked = environment.guard_request(body, plan.trajectory)
     return convert.trajectory_response(
-        checked.trajectory, body.profile, plan.warnings, started, time_format, **checked.diagnostics
+        checked.trajectory,
+        body.profile,
+        (*plan.warnings, *checked.warnings),
+        started,
+        time_format,
+        **checked.diagnostics,
     )
 
 
@@ -91,7 +96,7 @@ def spline_trajectory(
     return convert.trajectory_response(
         checked.trajectory,
         "spline",
-        plan.warnings,
+        (*plan.warnings, *checked.warnings),
         started,
         time_format,
         boundary=body.boundary,

@@ -159,3 +159,99 @@ def test_duration_with_a_tool_speed_is_422_at_the_speed(client: TestClient, spee
     url, body = EXCLUSIVE["cartesian"]
     err = problem(client.post(url, json={**body, "duration": 1.0, speed: 0.1}), 422, "validation")
     assert [e["loc"] for e in err["errors"]] == [["body", speed]], err
+
+
+TWO_LINK = """<robot name="two">
+<link name="base_link"/>
+<link name="l1">{l1}</link>
+<link name="l2">{l2}</link>
+<link name="tool0"/>
+<joint name="j1" type="revolute"><parent link="base_link"/><child link="l1"/><axis xyz="0 0 1"/>
+  <limit lower="-3" upper="3" velocity="2" effort="1"/></joint>
+<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.5 0 0"/>
+  <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="2" effort="1"/></joint>
+<joint name="jt" type="fixed"><parent link="l2"/><child link="tool0"/><origin xyz="0.5 0 0"/></joint>
+</robot>"""
+MESH = '<collision><geometry><mesh filename="package://two/l1.stl"/></geometry></collision>'
+BOX = '<collision><origin xyz="0.25 0 0"/><geometry><box size="0.5 0.05 0.05"/></geometry></collision>'
+FAR_BALL = {
+    "obstacles": [
+        {
+            "name": "ball",
+            "shape": {"type": "sphere", "radius": 0.1},
+            "pose": {"position": [0, 1.5, 0], "orientation": IDENTITY},
+        }
+    ]
+}
+
+
+def two_link_requests(urdf: str, env: dict[str, Any] | None) -> list[tuple[str, dict[str, Any]]]:
+    robot = {"urdf": urdf, "tip_frame": "tool0", "base_frame": "base_link"}
+    extra = {} if env is None else {"environment": env}
+    return [
+        (
+            "/v1/trajectories/joint",
+            {
+                "robot": robot,
+                "profile": "quintic",
+                "start": {"positions": [0.0, 0.5]},
+                "goal": {"positions": [0.5, 1.0]},
+                "duration": 1.0,
+                **extra,
+            },
+        ),
+        (
+            "/v1/trajectories/spline",
+            {
+                "robot": robot,
+                "waypoints": [[0.0, 0.5], [0.5, 1.0]],
+                "times": [0.0, 1.0],
+                "boundary": "clamped",
+                **extra,
+            },
+        ),
+        (
+            "/v1/trajectories/cartesian",
+            {
+                "robot": robot,
+                "method": "sampled",
+                "start": {"positions": [0.0, 0.5]},
+                "goal": {"positions": [0.5, 1.0]},
+                **extra,
+            },
+        ),
+        (
+            "/v1/trajectories/program",
+            {
+                "robot": robot,
+                "start": {"positions": [0.0, 0.5]},
+                "segments": [{"type": "ptp", "goal": {"positions": [0.5, 1.0]}}],
+                **extra,
+            },
+        ),
+    ]
+
+
+@pytest.mark.parametrize("env", [None, FAR_BALL])
+def test_mesh_only_links_are_named_in_the_warnings(client: TestClient, env: Any) -> None:
+    """API.md: "mesh-only links get a warning that they are not checked": in
+    ``diagnostics.warnings`` of every trajectory answer (was only ``collision_warnings``, and only
+    with an environment)."""
+    for url, body in two_link_requests(TWO_LINK.format(l1=MESH, l2=BOX), env):
+        answer = client.post(url, json=body)
+        assert answer.status_code == 200, (url, answer.text)
+        warnings = answer.json()["diagnostics"]["warnings"]
+        assert any("l1" in w and "mesh" in w for w in warnings), (url, warnings)
+
+
+def test_obstacles_for_a_robot_without_collision_geometry_are_a_warning(client: TestClient) -> None:
+    """A robot with no <collision> primitive cannot be checked against obstacles: the answer says
+    so (was a silent 200 without min_clearance)."""
+    for url, body in two_link_requests(TWO_LINK.format(l1="", l2=""), FAR_BALL):
+        answer = client.post(url, json=body)
+        assert answer.status_code == 200, (url, answer.text)
+        diag = answer.json()["diagnostics"]
+        assert "min_clearance" not in diag or diag["min_clearance"] is None
+        assert any("no collision geometry" in w for w in diag["warnings"]), (url, diag["warnings"])
+    for url, body in two_link_requests(TWO_LINK.format(l1="", l2=""), None):  # nothing asked
+        assert client.post(url, json=body).json()["diagnostics"]["warnings"] == [], url
