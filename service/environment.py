@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from core.cartesian.check import finish
-from core.errors import Collision, InputError
+from core.cartesian.partial import MIN_FRACTION, partial_warning
+from core.errors import Collision, InputError, PlanningError
 from core.trajectory import Trajectory
 from robots import registry
 from robots.collision import CollisionChecker, Obstacle, PathCheck, robot_setup
@@ -227,9 +228,12 @@ def guard_cartesian(
     env: Environment | None,
     urdf: str | None,
     field: tuple[str | int, ...] = ("environment",),
+    replan: Callable[[Any], Any] | None = None,
 ) -> Any:
     """``guard`` for a ``CartesianResult``: ``s`` from the tool's projection on the line; with
-    ``allow_partial`` the result's trajectory, ``fraction`` and ``failure`` are replaced."""
+    ``allow_partial`` a contact gives the line up to just before it, planned anew by ``replan``
+    (a ``CartesianTask`` -> a checked ``CartesianResult``) so the arm comes to rest there (without
+    ``replan``, or when no shorter line is clear, the trajectory cut before the contact, moving)."""
     robot = task.robot
     p0 = robot.fk(task.q_start)[:3, 3]
     axis = task.T_goal[:3, 3] - p0
@@ -250,14 +254,65 @@ def guard_cartesian(
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)
     last = float(g.trajectory.times[-1])
+    end = min(float(result.fraction), s_at(last))
+    if replan is not None:
+        stopped = _stop_before(task, replan, end, env, urdf, field)
+        if stopped is not None:
+            end, planned, checked = stopped
+            knots = planned.knots
+            if knots is not None:
+                knots = {**knots, "s": knots["s"] * end}
+            return dataclasses.replace(
+                planned,
+                fraction=end,
+                failure=g.failure,
+                knots=knots,
+                warnings=(partial_warning(end, g.failure), *planned.warnings, *g.warnings),
+                diagnostics={**planned.diagnostics, **checked.diagnostics},
+            )
     # the prefix measured anew (deviation, singular values), so every diagnostic describes it
     prefix = finish(task, dataclasses.replace(result, trajectory=g.trajectory))
     return dataclasses.replace(
         prefix,
-        fraction=min(float(result.fraction), s_at(last)),
+        fraction=end,
         failure=g.failure,
+        warnings=(partial_warning(end, g.failure), *prefix.warnings, MOVING_END),
         diagnostics=diagnostics,
     )
+
+
+MOVING_END = (
+    "the answer ends moving (its last point has non-zero velocity, cut before a contact): bring "
+    "the arm to rest before executing it"
+)
+"""Warning of a partial answer cut short by a collision without coming to rest."""
+STOP_TRIES = 4
+"""Shorter lines tried (each ``STOP_SHRINK`` of the last) to stop before a contact."""
+STOP_SHRINK = 0.9
+
+
+def _stop_before(
+    task: Any,
+    replan: Callable[[Any], Any],
+    end: float,
+    env: Environment | None,
+    urdf: str | None,
+    field: tuple[str | int, ...],
+) -> tuple[float, Any, Guarded] | None:
+    """The line of ``task`` up to ``end`` (its share of s) planned to rest by ``replan`` and clear
+    of contacts, shrinking ``end`` when needed: ``(end, result, its guard)``, or None."""
+    for _ in range(STOP_TRIES):
+        if end < MIN_FRACTION:
+            return None
+        short = dataclasses.replace(task.prefix(end), q_goal=None, allow_partial=False)
+        try:
+            planned = replan(short)
+            checked = guard(task.robot, env, planned.trajectory, urdf=urdf, field=field)
+        except PlanningError:
+            end *= STOP_SHRINK
+            continue
+        return end, planned, checked
+    return None
 
 
 def _clipped(segment: Any, last: float) -> Any:
@@ -347,11 +402,18 @@ def guard_program(result: Any, robot: Robot, body: Any) -> Any:
     # like the program's own partial plans: the segments done plus the share of the last one
     seg_last, s_last = segment_at(last), s_at(last)
     done = 0.0 if seg_last is None else (seg_last.index + (s_last or 0.0)) / n
+    fraction = min(float(result.fraction), done)
+    warnings = (
+        f"planned {fraction:.1%} of the program: {g.failure.detail}",
+        *result.warnings,
+        MOVING_END,
+    )
     return dataclasses.replace(
         result,
         trajectory=g.trajectory,
         segments=kept,
-        fraction=min(float(result.fraction), done),
+        warnings=warnings,
+        fraction=fraction,
         failure=g.failure,
         diagnostics=diagnostics,
     )
