@@ -241,8 +241,9 @@ def plan_program(task: ProgramTask) -> ProgramResult:
     times = np.union1d(regular[~near], marks)
     if len(times) > MAX_POINTS:
         raise TooLarge(
-            f"the program needs {len(times)} points, over the limit of {MAX_POINTS}",
-            field=("sample_period",),
+            f"the program needs {len(times)} points (the regular ones and {len(marks)} segment "
+            f"and blend boundaries), over the limit of {MAX_POINTS}",
+            field=("samples",) if task.samples is not None else ("sample_period",),
         )
     q, qd, qdd = _sample(timings, times)
     # Peaks of the analytic q(t) of every chunk (exact for joint profiles, dense for the rest),

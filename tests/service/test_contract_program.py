@@ -160,3 +160,13 @@ def test_a_partial_program_counts_what_it_returns(client: TestClient, second: st
         s = 2 * diag["fraction"] - 1
         assert 0.0 < s < err["s"] + 1e-6
         assert np.linalg.norm(end - at([0.1 - 0.7 * s, 0, 0])) < 1e-3
+
+
+def test_too_many_points_names_the_field_that_asked_for_them(client: TestClient) -> None:
+    """100,000 regular samples plus the boundaries are over the limit: 422 ``too_large`` at
+    ``samples`` (was at ``sample_period``, which the request did not send)."""
+    segs = [lin([0.1, 0, 0], 0.03), lin([0.1, 0.1, 0])]
+    err = problem(client.post(URL, json=program(segs, samples=100_000)), 422, "too_large")
+    assert err["errors"][0]["loc"] == ["body", "samples"]
+    err = problem(client.post(URL, json=program(segs, sample_period=1e-5)), 422, "too_large")
+    assert err["errors"][0]["loc"] == ["body", "sample_period"]
