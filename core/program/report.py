@@ -115,7 +115,10 @@ def report(
                 max_orientation_deviation=do,
                 min_singular_value=sp.min_singular_value,
                 length=sp.path.length,
+                method=seg.method,
             )
+            if sp.knot_count is not None:
+                diag["knot_count"] = sp.knot_count
             worst_p, worst_o = max(worst_p, dp), max(worst_o, do)
             sigma = min(sigma, sp.min_singular_value)
             if dp > seg.position_tolerance or do > seg.orientation_tolerance:

@@ -70,12 +70,6 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
                 Segment("ptp", configuration=s.goal.configuration, profile=s.profile, **common)
             )
             continue
-        if s.method != "sampled":
-            raise InputError(
-                "only method 'sampled' is supported in programs (bounded_deviation is planned "
-                "for single lines only)",
-                field=("segments", i, "method"),
-            )
         extra: dict[str, Any] = {}
         if isinstance(s, CircSegment):
             extra = {
@@ -92,6 +86,7 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
                 max_angular_jerk=s.max_angular_jerk,
                 position_tolerance=s.tolerance.position,
                 orientation_tolerance=s.tolerance.orientation,
+                method=s.method,
                 **common,
                 **extra,
             )
@@ -178,8 +173,9 @@ def result_body(
         "one motion (time-optimal along the path, q'' continuous), and the profile is ignored "
         "with a warning. Without `profile` a PTP follows that common timing too.\n\n"
         "LIN/CIRC `speed_profile: s_curve` times its whole stretch between stops as one S-curve "
-        "(continuous path acceleration, tool jerk within `max_linear_jerk`). Only `method: "
-        "sampled` is supported in programs (`bounded_deviation` is 422 `validation`).\n\n"
+        "(continuous path acceleration, tool jerk within `max_linear_jerk`). LIN/CIRC `method: "
+        "bounded_deviation` builds the segment's joint path from as few IK knots as keep it within "
+        "its tolerance (segment `diagnostics.knot_count`).\n\n"
         "`diagnostics.peak_jerk` (and peak velocity/acceleration) are of the analytic q(t): exact "
         "for PTP profiles, over a dense grid (10 per timing knot interval) elsewhere."
     ),

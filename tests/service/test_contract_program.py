@@ -170,3 +170,41 @@ def test_too_many_points_names_the_field_that_asked_for_them(client: TestClient)
     assert err["errors"][0]["loc"] == ["body", "samples"]
     err = problem(client.post(URL, json=program(segs, sample_period=1e-5)), 422, "too_large")
     assert err["errors"][0]["loc"] == ["body", "sample_period"]
+
+
+def point_line_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = b - a
+    t = np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
+
+
+@pytest.mark.parametrize("tolerance", [0.001, 0.005])
+def test_bounded_deviation_lin_in_a_program(client: TestClient, tolerance: float) -> None:
+    """API.md lets a LIN segment take ``method: bounded_deviation`` (was 422): a few IK knots, the
+    tool within ``tolerance`` of the line everywhere (pinocchio FK of the returned points and of 10
+    joint-linear points between each two), exactly on it at both ends."""
+    goal = [0.3, 0.1, -0.1]
+    seg = {
+        "type": "lin",
+        "goal": {"pose": pose(goal)},
+        "method": "bounded_deviation",
+        "tolerance": {"position": tolerance},
+    }
+    answer = client.post(URL, json=program([seg]))
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    diag = doc["segments"][0]["diagnostics"]
+    assert diag["method"] == "bounded_deviation" and 2 <= diag["knot_count"] <= 20
+    q = np.array([p["positions"] for p in doc["points"]])
+    u = np.linspace(0.0, 1.0, 11)[:-1]
+    dense = (q[:-1, None, :] + u[None, :, None] * (q[1:] - q[:-1])[:, None, :]).reshape(
+        -1, q.shape[1]
+    )
+    tool = np.array([tool_position(x) for x in [*dense, q[-1]]])
+    worst = point_line_distance(tool, P0, at(goal)).max()
+    assert worst <= tolerance
+    assert np.linalg.norm(tool[-1] - at(goal)) < 1e-9
+    sampled = client.post(URL, json=program([{**seg, "method": "sampled"}])).json()
+    assert sampled["segments"][0]["diagnostics"]["max_position_deviation"] < 1e-5
+    if tolerance > 0.002:  # the knots use the band the sampled walk does not
+        assert worst > 1e-5
