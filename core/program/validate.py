@@ -3,8 +3,9 @@
 Every tool position at a segment end is known before any IK runs (a goal pose, or FK of goal
 joints), so blend radii are checked first: a radius over half of either neighbour's length, or two
 spheres on one segment that overlap (their radii add up to more than the distance between its
-ends), or any two blend spheres of the program that overlap (a path coming back near an earlier
-blend), is ``InputError`` at the later segment's ``blend_radius``. Zero-length segments are skipped
+ends), is ``InputError`` at that segment's ``blend_radius``. Spheres about goals that are not the two
+ends of one segment may overlap: a cycle through the same waypoints (pick A, place B, pick A)
+blends at each visit, one blend at a time. Zero-length segments are skipped
 (with a warning) and do not count as neighbours.
 """
 
@@ -132,31 +133,14 @@ def layout(task: ProgramTask) -> Layout:
                 field=("segments", a, "blend_radius"),
             )
         blends[a] = r
-    _check_overlaps(goals, blends)
+    for prev, b in itertools.pairwise(active):
+        chord = float(np.linalg.norm(goals[b][:3, 3] - goals[prev][:3, 3]))
+        if blends[prev] + blends[b] > chord + 1e-12:
+            raise InputError(
+                f"the blend spheres at both ends of segment {b} overlap",
+                field=("segments", b, "blend_radius"),
+            )
     for i, seg in enumerate(segs):
         if seg.blend_radius > 0.0 and blends[i] == 0.0 and i != len(segs) - 1:
             warnings.append(f"segment {i}: blend_radius ignored (no moving segment to blend with)")
     return Layout(tuple(goals), tuple(lengths), tuple(active), tuple(blends), tuple(warnings))
-
-
-def _check_overlaps(goals: list[np.ndarray], blends: list[float]) -> None:
-    """``InputError`` at the later segment's ``blend_radius`` when two blend spheres (radius
-    ``blends[i]`` [m] about the tool position of ``goals[i]`` (4, 4)) overlap: their radii add up
-    to more than the distance between their centres (touching is allowed)."""
-    idx = [i for i, r in enumerate(blends) if r > 0.0]
-    if len(idx) < 2:
-        return
-    centres = np.array([goals[i][:3, 3] for i in idx])
-    radii = np.array([blends[i] for i in idx])
-    gap = np.linalg.norm(centres[:, None, :] - centres[None, :, :], axis=-1)
-    overlap = np.triu(radii[:, None] + radii[None, :] > gap + 1e-12, k=1)
-    if not overlap.any():
-        return
-    later = np.nonzero(overlap)[1]
-    b = int(later.min())  # the first segment whose sphere overlaps an earlier one
-    a = int(np.nonzero(overlap[:, b])[0][0])
-    raise InputError(
-        f"the blend sphere of segment {idx[b]} overlaps that of segment {idx[a]} "
-        f"({radii[b]:.4g} m + {radii[a]:.4g} m > {gap[a, b]:.4g} m between their centres)",
-        field=("segments", idx[b], "blend_radius"),
-    )

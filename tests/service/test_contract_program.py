@@ -50,22 +50,39 @@ def program(segments: list[dict[str, Any]], **extra: Any) -> dict[str, Any]:
     return {"robot": "ur5", "start": {"positions": HOME}, "segments": segments, **extra}
 
 
-def test_blend_spheres_of_non_neighbours_that_overlap_are_422(client: TestClient) -> None:
-    """Goals 0 and 2 are 0.03 m apart, radii 0.05 m each (every radius is under half of its
-    neighbours' 0.2 m lengths): 422 at segment 2's blend_radius (was 200)."""
-    segs = [
-        lin([0.2, 0, 0], 0.05),
-        lin([0.2, 0.2, 0], 0.05),
-        lin([0.17, 0, 0], 0.05),
-        lin([0, 0, 0]),
-    ]
-    err = problem(client.post(URL, json=program(segs)), 422, "validation")
-    assert err["errors"][0]["loc"] == ["body", "segments", 2, "blend_radius"]
-    segs[2]["blend_radius"] = 0.0  # no sphere at goal 2: nothing overlaps
-    assert client.post(URL, json=program(segs)).status_code == 200
-    segs[2]["blend_radius"] = 0.025  # 0.05 + 0.025 < 0.03 + 0.05: apart, fine
-    segs[2]["goal"]["pose"] = pose([0.12, 0, 0])  # 0.08 m from goal 0
-    assert client.post(URL, json=program(segs)).status_code == 200
+def test_blend_spheres_at_both_ends_of_an_arc_that_overlap_are_422(client: TestClient) -> None:
+    """A CIRC of three quarters of a 0.1 m circle: 0.47 m long, its ends 0.141 m apart. Radii of
+    0.08 m at both ends are under half of every neighbour's length but overlap: 422 at the later
+    segment's blend_radius; 0.07 m each (0.14 < 0.141) is fine."""
+    center = at([0.0, 0.1, 0.0])
+    circ = {
+        "type": "circ",
+        "goal": {"pose": pose([-0.1, 0.1, 0])},
+        "interim": at([0.1, 0.1, 0.0]).tolist(),  # through the far side: the long arc
+    }
+    assert np.linalg.norm(at([0, 0, 0]) - center) == pytest.approx(0.1)
+    segs = [lin([0.0, -0.2, 0], 0.08), {**circ, "blend_radius": 0.08}, lin([-0.1, 0.4, 0])]
+    segs[1]["goal"]["pose"] = pose([-0.1, 0.1, 0])
+    start = {"type": "lin", "goal": {"pose": pose([0, 0, 0])}}
+    body = program([segs[0], start | {"blend_radius": 0.0}, *segs[1:]])
+    body["segments"][1]["blend_radius"] = 0.08  # the sphere at the arc's start
+    body["segments"][0]["blend_radius"] = 0.0
+    err = problem(client.post(URL, json=body), 422, "validation")
+    assert err["errors"][0]["loc"] == ["body", "segments", 2, "blend_radius"], err
+    body["segments"][1]["blend_radius"] = body["segments"][2]["blend_radius"] = 0.07
+    answer = client.post(URL, json=body)
+    assert answer.status_code == 200, answer.text
+
+
+def test_a_cycle_through_the_same_waypoints_blends_at_every_visit(client: TestClient) -> None:
+    """A -> B -> A -> B with blends: the spheres at the two visits of A coincide, which is not an
+    overlap of one segment's ends (pick-and-place cycles are the common case)."""
+    a, b = [0.1, 0.0, 0.0], [0.1, 0.15, 0.0]
+    segs = [lin(a, 0.03), lin(b, 0.03), lin(a, 0.03), lin(b, 0.03), lin(a)]
+    answer = client.post(URL, json=program(segs))
+    assert answer.status_code == 200, answer.text
+    windows = [s["blend_out"] for s in answer.json()["segments"][:-1]]
+    assert all(w is not None and w["end_time"] > w["start_time"] for w in windows)
 
 
 @pytest.mark.parametrize("sampling", [{"samples": 7}, {"sample_period": 0.13}, {}])
