@@ -111,3 +111,21 @@ def test_allow_partial_answers_the_reachable_prefix_for_every_method(
         assert abs(d[1]) <= 1e-3 and abs(d[2]) <= 1e-3 and -1e-3 <= d[0] <= 3.0
     reached = tool_position(q[-1])[0] - p0[0]
     assert reached == pytest.approx(3.0 * diag["fraction"], abs=2e-3)
+
+
+@pytest.mark.parametrize("boundary", ["clamped", "natural", "not-a-knot"])
+def test_a_spline_timed_by_limits_never_exceeds_them(client: TestClient, boundary: str) -> None:
+    """Knot times allocated for the limits: every peak <= its limit exactly (a natural spline
+    peaked at 1.0000000000000002 rad/s for 1 rad/s), the binding one within 1e-9 of it."""
+    body = {
+        "waypoints": [[0, 0], [1, 0.5], [0.5, 1], [2, 0]],
+        "boundary": boundary,
+        "limits": {"velocity": [1.0, 1.0], "acceleration": [1.0, 1.0]},
+    }
+    answer = client.post("/v1/trajectories/spline", json=body)
+    assert answer.status_code == 200, answer.text
+    diag = answer.json()["diagnostics"]
+    ratio = np.maximum(diag["peak_velocity"], np.sqrt(diag["peak_acceleration"]))
+    assert np.all(np.asarray(diag["peak_velocity"]) <= 1.0)
+    assert np.all(np.asarray(diag["peak_acceleration"]) <= 1.0)
+    assert ratio.max() == pytest.approx(1.0, abs=1e-9)
