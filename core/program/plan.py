@@ -55,7 +55,9 @@ def _pieces(task: ProgramTask, geo: Geometry) -> list[list[_Piece]]:
     for sp in geo.segments:
         seg = sp.seg
         s, q = sp.piece()
-        T = sp.poses(robot, s)
+        # a knot spline (bounded_deviation) leaves the path within its tolerance: the tool's own
+        # poses, so its speed limits hold for the tool itself
+        T = sp.poses(robot, s) if sp.knot_count is None else robot.fk_many(q)
         cart = seg.cartesian
         acc = (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if cart else (np.inf, np.inf)
         piece = _Piece(

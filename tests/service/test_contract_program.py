@@ -206,6 +206,7 @@ def test_bounded_deviation_lin_in_a_program(client: TestClient, tolerance: float
         "goal": {"pose": pose(goal)},
         "method": "bounded_deviation",
         "tolerance": {"position": tolerance},
+        "max_linear_speed": 0.1,
     }
     answer = client.post(URL, json=program([seg]))
     assert answer.status_code == 200, answer.text
@@ -221,6 +222,13 @@ def test_bounded_deviation_lin_in_a_program(client: TestClient, tolerance: float
     worst = point_line_distance(tool, P0, at(goal)).max()
     assert worst <= tolerance
     assert np.linalg.norm(tool[-1] - at(goal)) < 1e-9
+    h = 1e-6  # the tool's own speed (central differences of FK along the joint velocity)
+    speed = [
+        np.linalg.norm(tool_position(np.add(p["positions"], h * np.asarray(p["velocities"])))
+                       - tool_position(np.add(p["positions"], -h * np.asarray(p["velocities"])))) / (2 * h)
+        for p in doc["points"]
+    ]  # fmt: skip
+    assert max(speed) <= 0.1
     sampled = client.post(URL, json=program([{**seg, "method": "sampled"}])).json()
     assert sampled["segments"][0]["diagnostics"]["max_position_deviation"] < 1e-5
     if tolerance > 0.002:  # the knots use the band the sampled walk does not
