@@ -43,10 +43,13 @@ def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) 
     bad = np.flatnonzero((q < lo) | (q > hi))
     if bad.size:
         j = int(bad[0])
+        where = ".".join(str(part) for part in loc)
+        segment = {"segment": loc[1]} if loc[0] == "segments" else {}
         raise JointLimit(
-            f"value {j} is outside the position limits of joint '{robot.joint_names[j]}'",
+            f"{where}[{j}] is outside the position limits of joint '{robot.joint_names[j]}'",
             field=(*loc, j),
             joint=j,
+            extra=segment,
         )
     return q
 

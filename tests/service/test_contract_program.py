@@ -233,3 +233,21 @@ def test_bounded_deviation_lin_in_a_program(client: TestClient, tolerance: float
     assert sampled["segments"][0]["diagnostics"]["max_position_deviation"] < 1e-5
     if tolerance > 0.002:  # the knots use the band the sampled walk does not
         assert worst > 1e-5
+
+
+def test_a_segment_goal_outside_the_joint_limits_names_its_segment(client: TestClient) -> None:
+    """422 joint_limit with ``segment`` (API.md: a program failure adds it; was missing) and the
+    joint's index in ``loc`` (the detail said "value 3" for joint index 3)."""
+    panda = registry.get("panda")
+    home = panda.home.copy()
+    bad = home.copy()
+    bad[3] = panda.position_limits[3, 1] + 0.2
+    segs = [
+        {"type": "ptp", "goal": {"positions": home.tolist()}},
+        {"type": "ptp", "goal": {"positions": bad.tolist()}},
+    ]
+    body = {"robot": "panda", "start": {"positions": home.tolist()}, "segments": segs}
+    err = problem(client.post(URL, json=body), 422, "joint_limit")
+    assert err["segment"] == 1 and err["joint"] == 3
+    assert err["errors"][0]["loc"] == ["body", "segments", 1, "goal", "positions", 3]
+    assert "segments.1.goal.positions[3]" in err["detail"]
