@@ -146,6 +146,13 @@ def default_joint_names(dof: int) -> tuple[str, ...]:
     return tuple(f"j{i + 1}" for i in range(dof))
 
 
+MIN_LAST_INTERVAL = 1e-6
+"""Shortest last interval [s] of a ``sample_period`` grid: a shorter one (a duration a hair past a
+multiple of the period) is merged into the interval before it, so no pair of returned points is
+closer than a microsecond (finite-difference accelerations over such a pair are meaningless: a
+resolved-rate plan ending 1.6e-7 s after its last grid point reported 7.8e3 rad/s^2)."""
+
+
 def sample_times(
     duration: float,
     sample_period: float | None = None,
@@ -157,7 +164,7 @@ def sample_times(
     Args:
         duration: Trajectory length in [s], > 0.
         sample_period: Spacing in [s]; the last interval may be shorter so the last point is at
-            ``duration`` (an interval shorter than 1e-9 s is merged into its neighbour).
+            ``duration`` (one shorter than ``MIN_LAST_INTERVAL`` is merged into its neighbour).
         samples: Number of points (>= 2), evenly spaced; overrides ``sample_period``.
         max_points: Upper bound on the count; more is ``TooLarge`` (checked before allocating).
 
@@ -192,6 +199,6 @@ def sample_times(
     intervals = int(points) - 1
     times = np.arange(intervals + 1, dtype=float) * period
     times[-1] = duration
-    if intervals >= 2 and times[-1] - times[-2] < 1e-9:
+    if intervals >= 2 and times[-1] - times[-2] < MIN_LAST_INTERVAL:
         times = np.delete(times, -2)
     return times

@@ -18,10 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from core.errors import Collision, InputError
+from core.cartesian.check import finish
+from core.cartesian.partial import MIN_FRACTION, partial_warning
+from core.errors import Collision, InputError, PlanningError
 from core.trajectory import Trajectory
 from robots import registry
-from robots.collision import CollisionChecker, Obstacle, robot_setup
+from robots.collision import CollisionChecker, Obstacle, PathCheck, robot_setup
 from robots.model import Robot
 from service.schemas.environment import Environment, Halfspace
 
@@ -39,12 +41,15 @@ class Guarded:
             ``collision_warnings``); empty when nothing was checked.
         failure: The contact that cut the trajectory, or None.
         fraction: Share of the duration returned (1 without a contact).
+        warnings: What is not checked (mesh-only links; obstacles for a robot without collision
+            geometry), for the answer's ``diagnostics.warnings``.
     """
 
     trajectory: Trajectory
     diagnostics: dict[str, Any]
     failure: Collision | None = None
     fraction: float = 1.0
+    warnings: tuple[str, ...] = ()
 
 
 def obstacles(env: Environment) -> list[Obstacle]:
@@ -122,6 +127,32 @@ def checker(
     return check if check.n_pairs else None
 
 
+def _clearance(result: PathCheck) -> dict[str, Any]:
+    """``min_clearance`` [m] and ``closest`` (pair names, time [s]) of a continuous check."""
+    return {
+        "min_clearance": float(result.min_clearance),
+        "closest": None
+        if result.closest is None
+        else {"links": list(result.closest[0]), "time_from_start": float(result.closest[1])},
+    }
+
+
+def unchecked_warnings(robot: Robot, env: Environment | None, urdf: str | None) -> tuple[str, ...]:
+    """Warnings for what the collision check cannot see: each link whose collision geometry is
+    mesh-only, and the obstacles of ``env`` when the robot has no collision geometry at all."""
+    geometry, _ = robot_setup(robot, urdf)
+    out = [
+        f"link {n} has only mesh collision geometry: it is not checked"
+        for n in geometry.unchecked_links
+    ]
+    if len(geometry.links) == 0 and env is not None and env.obstacles:
+        out.append(
+            "the robot has no collision geometry (no <collision> box, sphere or cylinder): the "
+            "environment's obstacles are not checked"
+        )
+    return tuple(out)
+
+
 def guard(
     robot: Robot,
     env: Environment | None,
@@ -144,8 +175,9 @@ def guard(
         field: Where the environment sits in the request (for validation errors).
     """
     check = checker(robot, env, urdf, field)
+    warnings = unchecked_warnings(robot, env, urdf)
     if check is None:
-        return Guarded(trajectory, {})
+        return Guarded(trajectory, {}, warnings=warnings)
     times, qs = trajectory.times, trajectory.positions
     ends = check.distances(qs[[0, -1]]) - check.threshold
     for row, which in ((0, "start"), (1, "goal")):
@@ -161,21 +193,13 @@ def guard(
                 extra={"time_from_start": t, "links": [a, b], "distance": d, "at": which},
             )
     result = check.check_path(times, qs)
-    diag: dict[str, Any] = {
-        "min_clearance": float(result.min_clearance),
-        "closest": None
-        if result.closest is None
-        else {"links": list(result.closest[0]), "time_from_start": float(result.closest[1])},
-    }
+    diag: dict[str, Any] = _clearance(result)
     if check.geometry.unchecked_links:
-        diag["collision_warnings"] = [
-            f"link {n} has only mesh collision geometry: it is not checked"
-            for n in check.geometry.unchecked_links
-        ]
+        diag["collision_warnings"] = list(warnings)
     c = result.contact
     if c is None:
         diag["clearance_profile"] = clearance_profile(check, trajectory)
-        return Guarded(trajectory, diag)
+        return Guarded(trajectory, diag, warnings=warnings)
     s = None if s_at is None else s_at(c.time)
     err = Collision(
         f"{c.links[0]} comes within {c.distance:.4f} m of {c.links[1]} at t = {c.time:.4f} s",
@@ -193,8 +217,9 @@ def guard(
         trajectory.joint_names,
     )
     fraction = float(times[k - 1] / times[-1]) if times[-1] > 0 else 0.0
+    diag.update(_clearance(check.check_path(prefix.times, prefix.positions)))  # the prefix's own
     diag["clearance_profile"] = clearance_profile(check, prefix)
-    return Guarded(prefix, diag, err, fraction)
+    return Guarded(prefix, diag, err, fraction, warnings)
 
 
 def guard_cartesian(
@@ -203,9 +228,12 @@ def guard_cartesian(
     env: Environment | None,
     urdf: str | None,
     field: tuple[str | int, ...] = ("environment",),
+    replan: Callable[[Any], Any] | None = None,
 ) -> Any:
     """``guard`` for a ``CartesianResult``: ``s`` from the tool's projection on the line; with
-    ``allow_partial`` the result's trajectory, ``fraction`` and ``failure`` are replaced."""
+    ``allow_partial`` a contact gives the line up to just before it, planned anew by ``replan``
+    (a ``CartesianTask`` -> a checked ``CartesianResult``) so the arm comes to rest there (without
+    ``replan``, or when no shorter line is clear, the trajectory cut before the contact, moving)."""
     robot = task.robot
     p0 = robot.fk(task.q_start)[:3, 3]
     axis = task.T_goal[:3, 3] - p0
@@ -222,16 +250,80 @@ def guard_cartesian(
         robot, env, traj, urdf=urdf, allow_partial=bool(task.allow_partial), s_at=s_at, field=field
     )
     diagnostics = {**result.diagnostics, **g.diagnostics}
+    result = dataclasses.replace(result, warnings=(*result.warnings, *g.warnings))
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)
     last = float(g.trajectory.times[-1])
+    end = min(float(result.fraction), s_at(last))
+    if replan is not None:
+        stopped = _stop_before(task, replan, end, env, urdf, field)
+        if stopped is not None:
+            end, planned, checked = stopped
+            knots = planned.knots
+            if knots is not None:
+                knots = {**knots, "s": knots["s"] * end}
+            return dataclasses.replace(
+                planned,
+                fraction=end,
+                failure=g.failure,
+                knots=knots,
+                warnings=(partial_warning(end, g.failure), *planned.warnings, *g.warnings),
+                diagnostics={**planned.diagnostics, **checked.diagnostics},
+            )
+    # the prefix measured anew (deviation, singular values), so every diagnostic describes it
+    prefix = finish(task, dataclasses.replace(result, trajectory=g.trajectory))
     return dataclasses.replace(
-        result,
-        trajectory=g.trajectory,
-        fraction=min(float(result.fraction), s_at(last)),
+        prefix,
+        fraction=end,
         failure=g.failure,
+        warnings=(partial_warning(end, g.failure), *prefix.warnings, MOVING_END),
         diagnostics=diagnostics,
     )
+
+
+MOVING_END = (
+    "the answer ends moving (its last point has non-zero velocity, cut before a contact): bring "
+    "the arm to rest before executing it"
+)
+"""Warning of a partial answer cut short by a collision without coming to rest."""
+STOP_TRIES = 4
+"""Shorter lines tried (each ``STOP_SHRINK`` of the last) to stop before a contact."""
+STOP_SHRINK = 0.9
+
+
+def _stop_before(
+    task: Any,
+    replan: Callable[[Any], Any],
+    end: float,
+    env: Environment | None,
+    urdf: str | None,
+    field: tuple[str | int, ...],
+) -> tuple[float, Any, Guarded] | None:
+    """The line of ``task`` up to ``end`` (its share of s) planned to rest by ``replan`` and clear
+    of contacts, shrinking ``end`` when needed: ``(end, result, its guard)``, or None."""
+    for _ in range(STOP_TRIES):
+        if end < MIN_FRACTION:
+            return None
+        short = dataclasses.replace(task.prefix(end), q_goal=None, allow_partial=False)
+        try:
+            planned = replan(short)
+            checked = guard(task.robot, env, planned.trajectory, urdf=urdf, field=field)
+        except PlanningError:
+            end *= STOP_SHRINK
+            continue
+        return end, planned, checked
+    return None
+
+
+def _clipped(segment: Any, last: float) -> Any:
+    """A program segment's windows cut at ``last`` [s], the end of a partial answer (its blend out
+    dropped when it had not begun by then, else ended there)."""
+    if segment.end_time <= last and (segment.blend_out is None or segment.blend_out[1] <= last):
+        return segment
+    blend = segment.blend_out
+    if blend is not None:
+        blend = None if blend[0] >= last else (blend[0], last)
+    return dataclasses.replace(segment, end_time=min(segment.end_time, last), blend_out=blend)
 
 
 def inline_urdf(robot_ref: Any) -> str | None:
@@ -299,15 +391,29 @@ def guard_program(result: Any, robot: Robot, body: Any) -> Any:
         err.extra["segment"] = None if seg is None else seg.index
         raise
     diagnostics = {**result.diagnostics, **g.diagnostics}
+    result = dataclasses.replace(result, warnings=(*result.warnings, *g.warnings))
     if g.failure is None:
         return dataclasses.replace(result, diagnostics=diagnostics)
     seg = segment_at(float(g.failure.extra["time_from_start"]))
     g.failure.extra["segment"] = None if seg is None else seg.index
     n = max(len(result.segments), 1)
+    last = float(g.trajectory.times[-1])
+    kept = tuple(_clipped(s, last) for s in result.segments if s.start_time < last or s.index == 0)
+    # like the program's own partial plans: the segments done plus the share of the last one
+    seg_last, s_last = segment_at(last), s_at(last)
+    done = 0.0 if seg_last is None else (seg_last.index + (s_last or 0.0)) / n
+    fraction = min(float(result.fraction), done)
+    warnings = (
+        f"planned {fraction:.1%} of the program: {g.failure.detail}",
+        *result.warnings,
+        MOVING_END,
+    )
     return dataclasses.replace(
         result,
         trajectory=g.trajectory,
-        fraction=min(float(result.fraction), (0 if seg is None else seg.index) / n),
+        segments=kept,
+        warnings=warnings,
+        fraction=fraction,
         failure=g.failure,
         diagnostics=diagnostics,
     )

@@ -80,10 +80,32 @@ def planning_error_body(err: ex.PlanningError) -> tuple[int, dict[str, Any]]:
     return status, problem_body(status, err.code, err.title, err.detail, **extra)
 
 
+def _without_tags(loc: list[int | str], body: Any) -> list[int | str]:
+    """``loc`` without the tags pydantic inserts for a discriminated union (``segments.0.ptp.goal``
+    is ``segments.0.goal`` of the request): walking ``body`` along ``loc``, a string that is not a
+    key of the object there but its ``"type"`` is a tag, not a field."""
+    if not loc or loc[0] != "body":
+        return loc
+    out: list[int | str] = [loc[0]]
+    node = body
+    for part in loc[1:]:
+        if isinstance(node, dict) and part not in node and node.get("type") == part:
+            continue
+        out.append(part)
+        if isinstance(node, dict) and isinstance(part, str):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            node = None
+    return out
+
+
 def _validation_errors(exc: RequestValidationError) -> list[dict[str, Any]]:
     out = []
     for e in exc.errors():
         loc = [p if isinstance(p, int | str) else str(p) for p in e.get("loc", ())]
+        loc = _without_tags(loc, exc.body)
         msg = str(e.get("msg", "invalid value"))
         out.append({"loc": loc, "msg": msg, "type": str(e.get("type", "value_error"))})
     return out

@@ -39,7 +39,7 @@ from core.cartesian.timing import PathTiming, sample_path, time_path, timed_traj
 from core.errors import (
     Infeasible,
 )
-from core.kinematics import Kinematics
+from core.kinematics import Kinematics, jacobians, task_rows
 from core.path.base import PathDeviation
 from core.path.line import StraightLine
 from core.trajectory import Trajectory
@@ -187,6 +187,20 @@ class TimedPath:
         return t
 
 
+def tool_rates(robot: Kinematics, q: np.ndarray, dq_ds: np.ndarray) -> np.ndarray:
+    """The tool's linear [m] and angular [rad] rates per unit s, ``(N, 2)``, of a joint path at
+    ``q`` (N, dof) with derivative ``dq_ds`` (N, dof): the norms of J dq/ds over the task's
+    linear and angular rows (a knot spline is not exactly on the line, so its tool moves at its
+    own rate, not the line's length per unit s)."""
+    v = np.einsum("nij,nj->ni", jacobians(robot, q), dq_ds)
+    rows = task_rows(robot.task_space)
+    linear = np.linalg.norm(v[:, [r for r in rows if r < 3]], axis=1)
+    angular = (
+        np.linalg.norm(v[:, [r for r in rows if r >= 3]], axis=1) if len(rows) > 3 else 0 * linear
+    )
+    return np.column_stack([linear, angular])
+
+
 def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> TimedPath:
     """Time ``path`` along s and sample it, with the timing every Cartesian method shares
     (``core.cartesian.timing``: a given duration, else the tool speed limits and the joint velocity and
@@ -195,7 +209,10 @@ def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> T
 
     grid = np.union1d(np.linspace(0.0, 1.0, _TIMING_GRID), path.knots.s)
     for _ in range(_MAX_RETIMES):
-        timing = time_path(task, line, grid, path(grid, 1), path(grid, 2))
+        rates = (
+            None if task.duration is not None else tool_rates(task.robot, path(grid), path(grid, 1))
+        )
+        timing = time_path(task, line, grid, path(grid, 1), path(grid, 2), rates)
         times, s = sample_path(task, timing)
         positions = path(s)
         positions[0], positions[-1] = path.knots.positions[0], path.knots.positions[-1]

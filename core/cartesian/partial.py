@@ -15,7 +15,9 @@ from dataclasses import replace
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
     BranchFlip,
+    Infeasible,
     JointLimit,
+    JointRateLimit,
     PlanningError,
     Singularity,
     Unreachable,
@@ -23,6 +25,12 @@ from core.errors import (
 
 PARTIAL_ERRORS = (Unreachable, JointLimit, BranchFlip, Singularity)
 """Failures at a path parameter ``s`` that a partial plan stops before."""
+SHORTER_ERRORS = (Infeasible, JointRateLimit)
+"""Failures of the 200 rule (``check.enforce``) that a shorter prefix may avoid."""
+SHORTEN = 0.7
+"""Share of a prefix kept when it fails the 200 rule."""
+SHORTEN_TRIES = 5
+"""Extra prefixes tried when they fail the 200 rule (the shortest: SHORTEN**5, 17 %)."""
 MIN_FRACTION = 1e-3
 """Shortest prefix [share of s] a re-planned partial plan may return."""
 PARTIAL_TRIES = 3
@@ -35,20 +43,30 @@ def partial_warning(fraction: float, failure: PlanningError) -> str:
 
 
 def plan_partial(
-    task: CartesianTask, plan: Callable[[CartesianTask], CartesianResult]
+    task: CartesianTask,
+    plan: Callable[[CartesianTask], CartesianResult],
+    failure: PlanningError | None = None,
 ) -> CartesianResult:
     """``plan(task)``; with ``task.allow_partial``, a failure at ``s`` (unreachable, joint limit,
     branch flip, singularity) gives ``plan`` of the prefix of the line up to where it was last
     reached (``extra["s_reached"]``, else just before ``s``): ``fraction`` < 1, ``failure`` set, the
-    knots' ``s`` on the whole line."""
-    try:
-        return plan(task)
-    except PARTIAL_ERRORS as err:
-        if not task.allow_partial or err.s is None or err.field is not None:
-            raise
-        failure = err
+    knots' ``s`` on the whole line.
+
+    ``failure``: that failure already met (``plan(task)`` is not tried again). A prefix that fails
+    the 200 rule (``SHORTER_ERRORS``: its accelerations or deviation, as a rate controller's
+    ticks up to a singularity do) is retried ``SHORTEN`` times shorter (``PARTIAL_TRIES +
+    SHORTEN_TRIES`` prefixes in all)."""
+    if failure is None:
+        try:
+            return plan(task)
+        except PARTIAL_ERRORS as err:
+            if not task.allow_partial or err.s is None or err.field is not None:
+                raise
+            failure = err
+    if failure.s is None:
+        raise failure
     fail_at, reached = float(failure.s), failure.extra.get("s_reached")
-    for _ in range(PARTIAL_TRIES):
+    for _ in range(PARTIAL_TRIES + SHORTEN_TRIES):
         end = float(reached) if reached is not None else 0.95 * fail_at
         if end < MIN_FRACTION:
             raise failure
@@ -62,6 +80,8 @@ def plan_partial(
             # The prefix's own s runs over [0, 1]: on the whole line it is end * s.
             fail_at = end * float(err.s)
             reached = end * float(err.extra["s_reached"]) if "s_reached" in err.extra else None
+        except SHORTER_ERRORS:
+            fail_at, reached = end * SHORTEN / 0.95, None
     else:
         raise failure
     knots = None if result.knots is None else {**result.knots, "s": result.knots["s"] * end}

@@ -98,6 +98,7 @@ def time_path(
     s: np.ndarray,
     dq_ds: np.ndarray,
     d2q_ds2: np.ndarray | None = None,
+    tool_rate: np.ndarray | None = None,
 ) -> PathTiming:
     """s(t) from 0 to ``s[-1]`` for a path q(s) known at ``s`` (see the module docstring).
 
@@ -108,6 +109,10 @@ def time_path(
         dq_ds: Joint path derivative at ``s`` [rad per unit s], ``(K, dof)``.
         d2q_ds2: Second derivative [rad per unit s^2], ``(K, dof)``, or None to ignore joint
             acceleration limits.
+        tool_rate: The tool's actual linear [m] and angular [rad] rates per unit s at ``s``,
+            ``(K, 2)``, for a joint path that leaves the line within its tolerance (knot
+            splines): the tool speed limits cap s' there too (without ``duration``). None: the
+            path is on the line (its length and angle give the rates).
 
     Raises:
         JointRateLimit: with a fixed duration, a joint speed over its limit (first s).
@@ -132,6 +137,8 @@ def time_path(
         bound = joint_speed_cap(dq_ds, (1.0 - ACCELERATION_SHARE) * amax)
         acc_cap = np.maximum(np.minimum(bound[:-1], bound[1:]), 1e-12)
     cap = np.minimum(cap_v, cap_a)
+    if tool_rate is not None:
+        cap = np.minimum(cap, _tool_cap(np.asarray(tool_rate, dtype=float), linear, angular))
     floor = MIN_SPEED_FRACTION * nominal if np.isfinite(nominal) else 0.0
     low = cap_v[1:-1] < floor
     if np.any(low):
@@ -182,6 +189,17 @@ def time_path(
                     f"s={s[k]:.3f}); the path is unchanged"
                 )
     return PathTiming(profile, float(s[-1]), tuple(warnings), slowdown)
+
+
+def _tool_cap(tool_rate: np.ndarray, linear: float | None, angular: float | None) -> np.ndarray:
+    """Largest s' [1/s] at each row of ``tool_rate`` (K, 2) [m, rad per unit s] that keeps the
+    tool within the linear and angular speed limits [m/s], [rad/s] (None: no limit)."""
+    cap = np.full(len(tool_rate), np.inf)
+    for col, limit in ((0, linear), (1, angular)):
+        if limit is not None:
+            rate = tool_rate[:, col]
+            cap = np.minimum(cap, np.where(rate > 1e-12, limit / np.maximum(rate, 1e-12), np.inf))
+    return cap
 
 
 def fixed_profile(task: CartesianTask, line: Path, T: float, end: float = 1.0) -> Profile:

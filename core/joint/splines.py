@@ -157,6 +157,11 @@ class SplinePlan(NamedTuple):
     warnings: tuple[str, ...]
 
 
+ROUNDING_MARGIN = 1e-12
+"""Relative lengthening of an exactly scaled spline, so its peaks are never above the limits by
+rounding (a natural spline timed to 1 rad/s peaked at 1.0000000000000002)."""
+
+
 def _segment_ratios(profile: SplineProfile, vmax: np.ndarray, amax: np.ndarray) -> np.ndarray:
     """Per piece, the factor by which stretching time would just meet the limits, ``(n,)``."""
     vel, acc = profile.segment_peaks()
@@ -216,8 +221,9 @@ def allocate_times(
         h = h * np.clip(ratios / k, 0.25, 1.0) ** 0.5
     homogeneous = boundary != "clamped" or not (np.any(start_velocity) or np.any(goal_velocity))
     if homogeneous:
+        # 1e-12 longer: the exact scaling meets the binding limit, rounding may put it an ulp over
         total = durations.clamp_duration(
-            best_total if np.isfinite(best_total) else 0.0, "this spline"
+            best_total * (1.0 + ROUNDING_MARGIN) if np.isfinite(best_total) else 0.0, "this spline"
         )
         return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
 

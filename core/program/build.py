@@ -20,6 +20,7 @@ import numpy as np
 
 from core.errors import BranchFlip, InputError, JointLimit, PlanningError, Unreachable
 from core.program.geometry.blend import joint_blend, pose_blend, sphere_crossing
+from core.program.geometry.knots import knot_spline
 from core.program.geometry.paths import SegmentPath, cartesian_path, sample_grid
 from core.program.segments import ProgramTask, Segment
 from core.program.validate import Layout
@@ -179,6 +180,12 @@ def build(task: ProgramTask, lay: Layout) -> Geometry:
             else:
                 w = _keep_label(robot, walk(robot, path.poses, q, grid, task.deadline))
                 sp = SegmentPath(i, seg, path, q, w.s, w.q, s_in, s_out)
+                if seg.method == "bounded_deviation" and w.failure is None:
+                    knots, sp.q = knot_spline(
+                        robot, path, w.s, w.q, [s_in, s_out],
+                        seg.position_tolerance, seg.orientation_tolerance,
+                    )  # fmt: skip
+                    sp.knot_count = len(knots)
                 sp.min_singular_value = w.min_singular_value
                 if w.failure is not None:
                     _tag(w.failure, i)

@@ -55,7 +55,9 @@ def _pieces(task: ProgramTask, geo: Geometry) -> list[list[_Piece]]:
     for sp in geo.segments:
         seg = sp.seg
         s, q = sp.piece()
-        T = sp.poses(robot, s)
+        # a knot spline (bounded_deviation) leaves the path within its tolerance: the tool's own
+        # poses, so its speed limits hold for the tool itself
+        T = sp.poses(robot, s) if sp.knot_count is None else robot.fk_many(q)
         cart = seg.cartesian
         acc = (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if cart else (np.inf, np.inf)
         piece = _Piece(
@@ -241,8 +243,9 @@ def plan_program(task: ProgramTask) -> ProgramResult:
     times = np.union1d(regular[~near], marks)
     if len(times) > MAX_POINTS:
         raise TooLarge(
-            f"the program needs {len(times)} points, over the limit of {MAX_POINTS}",
-            field=("sample_period",),
+            f"the program needs {len(times)} points (the regular ones and {len(marks)} segment "
+            f"and blend boundaries), over the limit of {MAX_POINTS}",
+            field=("samples",) if task.samples is not None else ("sample_period",),
         )
     q, qd, qdd = _sample(timings, times)
     # Peaks of the analytic q(t) of every chunk (exact for joint profiles, dense for the rest),

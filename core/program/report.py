@@ -115,7 +115,10 @@ def report(
                 max_orientation_deviation=do,
                 min_singular_value=sp.min_singular_value,
                 length=sp.path.length,
+                method=seg.method,
             )
+            if sp.knot_count is not None:
+                diag["knot_count"] = sp.knot_count
             worst_p, worst_o = max(worst_p, dp), max(worst_o, do)
             sigma = min(sigma, sp.min_singular_value)
             if dp > seg.position_tolerance or do > seg.orientation_tolerance:
@@ -136,9 +139,13 @@ def report(
     fraction = 1.0
     if geo.failure is not None:
         n = len(task.segments)
-        fraction = (geo.failed_segment + min(max(geo.failed_s, 0.0), 1.0)) / n
-        if geo.failed_s >= 1.0:
-            fraction = (geo.failed_segment + 1.0) / n
+        # the segments before the failing one, plus the share of it that is returned (none of a
+        # PTP or of a segment whose start already fails; a LIN/CIRC up to where it got)
+        failed = planned.get(geo.failed_segment)
+        share = 0.0
+        if failed is not None and failed.s is not None and len(failed.s):
+            share = min(max(float(failed.s[-1]), 0.0), 1.0)
+        fraction = (geo.failed_segment + share) / n
         warnings.insert(0, f"planned {fraction:.1%} of the program: {geo.failure.detail}")
     diagnostics = {
         "max_position_deviation": worst_p,

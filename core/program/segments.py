@@ -56,6 +56,9 @@ class Segment:
         max_angular_jerk: S-curve tool angular jerk limit [rad/s^3] (None: ``DEFAULT_ANGULAR_JERK``).
         position_tolerance: LIN/CIRC allowed deviation from the path [m].
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
+        method: LIN/CIRC: ``"sampled"`` (the joint spline through the dense IK walk) or
+            ``"bounded_deviation"`` (through as few of its IK solutions as keep the tolerance,
+            ``core.program.geometry.knots``).
     """
 
     type: SegmentType
@@ -75,6 +78,7 @@ class Segment:
     max_angular_jerk: float | None = None
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
+    method: str = "sampled"
 
     def tool_jerks(self) -> tuple[float, float]:
         """S-curve tool jerk limits [m/s^3], [rad/s^3] (defaults where not given)."""

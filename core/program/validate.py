@@ -3,7 +3,9 @@
 Every tool position at a segment end is known before any IK runs (a goal pose, or FK of goal
 joints), so blend radii are checked first: a radius over half of either neighbour's length, or two
 spheres on one segment that overlap (their radii add up to more than the distance between its
-ends), is ``InputError`` at that segment's ``blend_radius``. Zero-length segments are skipped
+ends), is ``InputError`` at that segment's ``blend_radius``. Spheres about goals that are not the two
+ends of one segment may overlap: a cycle through the same waypoints (pick A, place B, pick A)
+blends at each visit, one blend at a time. Zero-length segments are skipped
 (with a warning) and do not count as neighbours.
 """
 

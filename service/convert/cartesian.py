@@ -26,6 +26,7 @@ from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
 from service import environment
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
+from service.errors import planning_error_body
 from service.schemas.cartesian import CartesianTaskSpec
 
 _SAME_NAMED = tuple(
@@ -140,10 +141,11 @@ def run(
 
 
 def failure_body(err: BaseException) -> dict[str, Any]:
-    """``{"code", "title", "s", "detail"}`` of the error that ended a partial plan."""
+    """The problem body (``code``, ``title``, ``detail``, ``s`` and the error's own fields, such as a
+    collision's ``links``, ``distance`` and ``time_from_start``) of the error that ended a partial
+    plan: what the 422 would have said without ``allow_partial``."""
     if isinstance(err, PlanningError):
-        s = None if err.s is None else _finite(round(float(err.s), 6))
-        return {"code": err.code, "title": err.title, "s": s, "detail": err.detail}
+        return planning_error_body(err)[1]
     return {"code": "infeasible", "title": "Planning failed", "s": None, "detail": str(err)}
 
 

@@ -49,6 +49,10 @@ def cartesian_trajectory(
     task = convert.task_from_spec(body, robot, deadline, settings.max_points)
     result, elapsed_ms = convert.run(task, body.method, settings.max_points)
     result = environment.guard_cartesian(
-        task, result, body.environment, environment.inline_urdf(body.robot)
+        task,
+        result,
+        body.environment,
+        environment.inline_urdf(body.robot),
+        replan=lambda short: convert.run(short, body.method, settings.max_points)[0],
     )
     return json_response(convert.result_body(result, body.method, elapsed_ms, time_format))

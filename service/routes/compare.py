@@ -9,6 +9,7 @@ failure is its row's problem+json, never the request's.
 
 from __future__ import annotations
 
+import functools
 import time
 from typing import Any
 
@@ -17,6 +18,7 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from core.cartesian.methods import METHODS
+from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import PlanningError
 from robots import registry
 from service import deps, environment
@@ -32,6 +34,11 @@ RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {"model": CompareResponse, "description": "One row per method"}
 }
 RESPONSES.update(PROBLEM_RESPONSES)
+
+
+def _replan(task: CartesianTask, method: str, max_points: int) -> CartesianResult:
+    """A shorter line planned by the row's method (a partial plan stopping before a contact)."""
+    return convert.run(task, method, max_points)[0]
 
 
 @router.post(
@@ -60,6 +67,7 @@ def compare(
             result = environment.guard_cartesian(
                 task, result, body.task.environment, environment.inline_urdf(body.task.robot),
                 field=("task", "environment"),
+                replan=functools.partial(_replan, method=method, max_points=settings.max_points),
             )  # fmt: skip
         except PlanningError as err:
             _, problem = planning_error_body(err)

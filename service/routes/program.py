@@ -21,6 +21,7 @@ from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
 from service import deps, environment
+from service.convert.cartesian import failure_body
 from service.encoding import (
     base_diagnostics,
     check_finite,
@@ -42,10 +43,13 @@ def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) 
     bad = np.flatnonzero((q < lo) | (q > hi))
     if bad.size:
         j = int(bad[0])
+        where = ".".join(str(part) for part in loc)
+        segment = {"segment": loc[1]} if loc[0] == "segments" else {}
         raise JointLimit(
-            f"value {j} is outside the position limits of joint '{robot.joint_names[j]}'",
+            f"{where}[{j}] is outside the position limits of joint '{robot.joint_names[j]}'",
             field=(*loc, j),
             joint=j,
+            extra=segment,
         )
     return q
 
@@ -69,12 +73,6 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
                 Segment("ptp", configuration=s.goal.configuration, profile=s.profile, **common)
             )
             continue
-        if s.method != "sampled":
-            raise InputError(
-                "only method 'sampled' is supported in programs (bounded_deviation is planned "
-                "for single lines only)",
-                field=("segments", i, "method"),
-            )
         extra: dict[str, Any] = {}
         if isinstance(s, CircSegment):
             extra = {
@@ -91,6 +89,7 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
                 max_angular_jerk=s.max_angular_jerk,
                 position_tolerance=s.tolerance.position,
                 orientation_tolerance=s.tolerance.orientation,
+                method=s.method,
                 **common,
                 **extra,
             )
@@ -123,13 +122,7 @@ def result_body(
     diag.update({k: _finite(v) for k, v in result.diagnostics.items()})
     if result.failure is not None:
         err: PlanningError = result.failure
-        diag["failure"] = {
-            "code": err.code,
-            "title": err.title,
-            "detail": err.detail,
-            "segment": err.extra.get("segment"),
-            "s": None if err.s is None else round(float(err.s), 6),
-        }
+        diag["failure"] = {"segment": err.extra.get("segment"), **failure_body(err)}
 
     def stamp(t: float) -> Any:
         return ros_durations(np.array([t]))[0] if time_format == "ros" else t
@@ -183,8 +176,9 @@ def result_body(
         "one motion (time-optimal along the path, q'' continuous), and the profile is ignored "
         "with a warning. Without `profile` a PTP follows that common timing too.\n\n"
         "LIN/CIRC `speed_profile: s_curve` times its whole stretch between stops as one S-curve "
-        "(continuous path acceleration, tool jerk within `max_linear_jerk`). Only `method: "
-        "sampled` is supported in programs (`bounded_deviation` is 422 `validation`).\n\n"
+        "(continuous path acceleration, tool jerk within `max_linear_jerk`). LIN/CIRC `method: "
+        "bounded_deviation` builds the segment's joint path from as few IK knots as keep it within "
+        "its tolerance (segment `diagnostics.knot_count`).\n\n"
         "`diagnostics.peak_jerk` (and peak velocity/acceleration) are of the analytic q(t): exact "
         "for PTP profiles, over a dense grid (10 per timing knot interval) elsewhere."
     ),

@@ -61,7 +61,7 @@ async def joint_trajectory(
         return convert.trajectory_response(
             checked.trajectory,
             body.profile,
-            plan.warnings,
+            (*plan.warnings, *checked.warnings),
             started,
             time_format,
             **checked.diagnostics,
@@ -105,7 +105,7 @@ async def spline_trajectory(
         return convert.trajectory_response(
             checked.trajectory,
             "spline",
-            plan.warnings,
+            (*plan.warnings, *checked.warnings),
             started,
             time_format,
             boundary=body.boundary,

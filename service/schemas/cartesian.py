@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from core.cartesian.methods import METHODS
 from core.cartesian.task import SPEED_PROFILES
@@ -23,6 +23,7 @@ from service.schemas.common import (
     RobotRef,
     StrictModel,
     TrajectoryResponse,
+    not_with,
 )
 from service.schemas.environment import Environment
 
@@ -222,15 +223,16 @@ class CartesianTaskSpec(StrictModel):
         description="QP solver of resolved_rate_dls (a qpsolvers name; default osqp).",
     )
 
-    @model_validator(mode="after")
-    def _exclusive(self) -> Any:
-        if self.duration is not None and (
-            self.max_linear_speed is not None or self.max_angular_speed is not None
-        ):
-            raise ValueError("give duration or max_linear_speed/max_angular_speed, not both")
-        if self.sample_period is not None and self.samples is not None:
-            raise ValueError("give sample_period or samples, not both")
-        return self
+    @field_validator("max_linear_speed", "max_angular_speed")
+    @classmethod
+    def _speeds_not_with_duration(cls, value: Any, info: ValidationInfo) -> Any:
+        message = "give duration or max_linear_speed/max_angular_speed, not both"
+        return not_with(value, info, ("duration",), message)
+
+    @field_validator("samples")
+    @classmethod
+    def _samples_not_with_period(cls, value: Any, info: ValidationInfo) -> Any:
+        return not_with(value, info, ("sample_period",), "give sample_period or samples, not both")
 
 
 class CartesianRequest(CartesianTaskSpec):

@@ -11,7 +11,7 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from fastapi import Query
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from core.geometry.so3 import QUAT_NORM_TOLERANCE, matrix_to_pose, pose_to_matrix
 
@@ -101,6 +101,15 @@ class Limits(StrictModel):
     )
 
 
+def not_with(value: Any, info: ValidationInfo, others: tuple[str, ...], message: str) -> Any:
+    """A field validator's body for two fields that exclude each other: ``value`` (given) is
+    rejected with ``message`` when any of ``others`` (declared before it) is given too, so the
+    error's ``loc`` names the field rather than the whole body."""
+    if value is not None and any(info.data.get(name) is not None for name in others):
+        raise ValueError(message)
+    return value
+
+
 class Sampling(StrictModel):
     """How the returned trajectory is sampled: a period or a count, not both."""
 
@@ -117,11 +126,10 @@ class Sampling(StrictModel):
         description="Number of returned points, evenly spaced in time.",
     )
 
-    @model_validator(mode="after")
-    def _one_of_period_or_count(self) -> Any:
-        if self.sample_period is not None and self.samples is not None:
-            raise ValueError("give sample_period or samples, not both")
-        return self
+    @field_validator("samples")
+    @classmethod
+    def _one_of_period_or_count(cls, value: Any, info: ValidationInfo) -> Any:
+        return not_with(value, info, ("sample_period",), "give sample_period or samples, not both")
 
 
 TimeFormat = Literal["float", "ros"]

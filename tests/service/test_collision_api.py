@@ -252,7 +252,9 @@ def test_clearance_profile_of_a_partial_plan_covers_the_returned_prefix(client) 
     assert prof["time_from_start"][-1] == times[-1] and prof["time_from_start"][0] == times[0]
     assert set(prof["time_from_start"]) <= set(times)
     assert doc["diagnostics"]["failure"]["code"] == "collision"
-    assert doc["diagnostics"]["min_clearance"] < 0 <= min(prof["value"])  # only the clear prefix
+    # only the clear prefix: its profile and its min_clearance (the contact is in failure)
+    assert 0 <= doc["diagnostics"]["min_clearance"] <= min(prof["value"]) + 1e-12
+    assert doc["diagnostics"]["failure"]["distance"] <= 0
 
 
 def test_panda_self_collision_through_the_api(client) -> None:
@@ -499,7 +501,8 @@ def test_program_collision_names_its_segment_and_s(client) -> None:
     assert point_segment(center, a, b) - r - R >= 0
     prof = doc["diagnostics"]["clearance_profile"]  # the returned prefix, every value clear
     assert prof["time_from_start"][-1] == doc["points"][-1]["time_from_start"]
-    assert min(prof["value"]) >= 0 > doc["diagnostics"]["min_clearance"]
+    assert 0 <= doc["diagnostics"]["min_clearance"] <= min(prof["value"]) + 1e-12
+    assert doc["diagnostics"]["closest"]["time_from_start"] <= doc["points"][-1]["time_from_start"]
 
 
 def shape_ends(entry: dict) -> tuple[np.ndarray, np.ndarray]:

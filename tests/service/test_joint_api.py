@@ -166,7 +166,7 @@ def test_linear_warns_of_its_velocity_steps(client: TestClient) -> None:
         (lambda r: r.update(duration=2e5), ["body", "duration"]),
         (lambda r: r["limits"].update(velocity=[1.0, -1.0]), ["body", "limits", "velocity", 1]),
         (lambda r: r.update(samples=1), ["body", "samples"]),
-        (lambda r: r.update(samples=10, sample_period=0.1), ["body"]),
+        (lambda r: r.update(samples=10, sample_period=0.1), ["body", "samples"]),
         (lambda r: r["start"].update(positions=[]), ["body", "start", "positions"]),
         (lambda r: r["goal"].update(positions=[2e4, 0.0]), ["body", "goal", "positions", 0]),
     ],

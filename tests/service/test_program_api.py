@@ -141,7 +141,7 @@ def _loc(body: dict) -> list:
         (lambda b: b["segments"][0].update(type="spline"), ["body", "segments", 0]),
         (lambda b: b["segments"][3]["goal"].update(positions=[0.0] * 5), ["body", "segments", 3, "goal", "positions"]),
         (lambda b: b["segments"][0].update(blend_radius=float("nan")), ["body", "segments", 0]),
-        (lambda b: b["segments"][2].update(method="bounded_deviation"), ["body", "segments", 2, "method"]),
+        (lambda b: b["segments"][2].update(method="taylor"), ["body", "segments", 2, "method"]),
     ],
 )  # fmt: skip
 def test_validation_errors_name_the_field(client, edit, loc):

@@ -80,6 +80,8 @@ class SegmentPath:
         s_out: Where it enters the outgoing blend sphere (1 without).
         blend_out: Whether the segment blends into the next.
         min_singular_value: Smallest singular value along the walk (LIN/CIRC).
+        knot_count: IK knots of a bounded-deviation segment's spline (``q`` is the spline at
+            ``s``), None for the others.
     """
 
     index: int
@@ -92,6 +94,7 @@ class SegmentPath:
     s_out: float = 1.0
     blend_out: bool = False
     min_singular_value: float = float("nan")
+    knot_count: int | None = None
     _spline: CubicSpline | None = field(default=None, repr=False)
 
     @property
