@@ -149,13 +149,19 @@ class RobotCollision:
 
 
 # --- building the robot's capsules ---------------------------------------------------------------
+def _link_frame_id(model: pin.Model, link: str) -> int:
+    """The frame of link ``link``, looked up by kind: a joint may share a link's name (Baxter's
+    ``right_hand``), and pinocchio's untyped look-up then fails ("Several frames match")."""
+    return model.getFrameId(link, pin.FrameType.BODY)
+
+
 def _attach(model: pin.Model, capsules: Sequence[Capsule]) -> RobotCollision:
     """Capsules given in link frames -> capsules in their parent joint frames."""
     links, joints, a, b, r = [], [], [], [], []
     for c in capsules:
-        if not model.existFrame(c.link):
+        if not model.existFrame(c.link, pin.FrameType.BODY):
             continue  # a link the reduced model does not hold (not on the base -> tip chain)
-        frame = model.frames[model.getFrameId(c.link)]
+        frame = model.frames[_link_frame_id(model, c.link)]
         M = frame.placement
         links.append(c.link)
         joints.append(frame.parentJoint)
@@ -185,7 +191,7 @@ def robot_collision(robot: Robot, urdf: str | None = None) -> RobotCollision:
             field=("robot", "urdf"),
             extra={"limit_primitives": MAX_CAPSULES},
         )
-    held = [m for m in mesh_only if robot.model.existFrame(m)]
+    held = [m for m in mesh_only if robot.model.existFrame(m, pin.FrameType.BODY)]
     return RobotCollision(rc.links, rc.joints, rc.a, rc.b, rc.radius, tuple(held))
 
 
@@ -686,7 +692,7 @@ def link_shapes(
     model = robot.model
     rows = []
     for i, link in enumerate(geometry.links):
-        M_inv = model.frames[model.getFrameId(link)].placement.inverse()
+        M_inv = model.frames[_link_frame_id(model, link)].placement.inverse()
         a, b = M_inv.act(geometry.a[i]), M_inv.act(geometry.b[i])
         length = float(np.linalg.norm(b - a))
         z = (b - a) / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])

@@ -40,6 +40,11 @@ SAME = 1e-6
 """[rad or m]: two solutions closer than this in every joint (modulo 2 pi) are one."""
 SINGULAR = 1e-6
 """Smallest Jacobian singular value below which a solution is reported near-singular."""
+NEAR = 1e-3
+"""[rad or m]: two verified solutions with the same configuration label closer than this in every
+joint are one. At a singular pose the numeric search's seeds converge to points up to ~sqrt(1e-9)
+apart (an inline planar arm stretched out gave four "solutions" within 6e-6 rad, two per label);
+genuinely distinct solutions of one label exist only across 2 pi turns."""
 NUMERIC_SEEDS = 24
 """Pseudo-random seeds of the numeric all-solutions search, besides the request seed and home."""
 MAX_TURN_VARIANTS = 4096
@@ -283,7 +288,21 @@ def ik_all(
         if fam is not None
         else (None,) * len(Q)
     )
-    return IKSolutions(Q, labels, pe, oe, solver, tuple(warnings), outside)
+    keep = _distinct_per_label(Q, labels)
+    labels = tuple(label for label, k in zip(labels, keep, strict=True) if k)
+    return IKSolutions(Q[keep], labels, pe[keep], oe[keep], solver, tuple(warnings), outside)
+
+
+def _distinct_per_label(Q: np.ndarray, labels: tuple[str | None, ...]) -> np.ndarray:
+    """``(k,)`` mask keeping each row unless an earlier kept row has its label and lies within
+    ``NEAR`` of it in every joint (no wrapping: 2 pi variants from ``turns`` stay)."""
+    keep = np.ones(len(Q), dtype=bool)
+    for i in range(1, len(Q)):
+        earlier = np.flatnonzero(keep[:i])
+        same = [k for k in earlier if labels[k] == labels[i]]
+        if same and (np.abs(Q[same] - Q[i]).max(axis=1) < NEAR).any():
+            keep[i] = False
+    return keep
 
 
 @dataclass(frozen=True)
