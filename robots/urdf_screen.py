@@ -91,11 +91,12 @@ def _floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> 
 
 
 def _parse(urdf: str) -> ET.Element:
-    """Parse with DTDs, entities and external references forbidden."""
+    """Parse with DTDs, entities and external references forbidden. The text is parsed as text:
+    it arrived decoded (JSON), so an ``encoding="ISO-8859-1"`` declaration in it must not make the
+    parser decode its UTF-8 bytes again (a link named "outil_ø" came out as two Latin-1
+    characters, so tip_frame named no link)."""
     try:
-        return DET.fromstring(
-            urdf.encode("utf-8"), forbid_dtd=True, forbid_entities=True, forbid_external=True
-        )
+        return DET.fromstring(urdf, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DefusedXmlException:
         raise InvalidURDF(
             "URDF with a DTD, entity declarations or external references is refused", field=FIELD

@@ -33,7 +33,7 @@ def capsules_from_urdf(urdf: str) -> tuple[list[Capsule], list[str]]:
     (a sphere of radius 0, a box of size 0 0 0, as real URDFs write for placeholder links) has no
     volume and is skipped; a box flat in one or two axes keeps its capsule.
     """
-    root = DET.fromstring(urdf.encode("utf-8"), forbid_dtd=True, forbid_entities=True)
+    root = DET.fromstring(urdf, forbid_dtd=True, forbid_entities=True)  # text, as the screen
     capsules: list[Capsule] = []
     mesh_only: list[str] = []
     for link in root.findall("link"):

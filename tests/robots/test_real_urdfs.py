@@ -155,3 +155,20 @@ def test_singular_pose_gives_one_solution_per_label() -> None:
     assert sorted(sols.configurations) == ["down", "up"]
     np.testing.assert_allclose(sols.positions[0], q, atol=1e-9)
     np.testing.assert_allclose(sols.positions[1], [1.5, -1.0], atol=1e-9)  # l1 = l2: q1 + q2, -q2
+
+
+# --- an encoding declaration in text that arrived decoded -------------------------------------------
+
+
+@pytest.mark.parametrize("declared", ["ISO-8859-1", "UTF-16", "ascii", "utf-8"])
+def test_encoding_declaration_does_not_re_decode_the_text(declared: str) -> None:
+    # The URDF arrives as a JSON string (already text); parsing its UTF-8 bytes under an
+    # ISO-8859-1 declaration turned the link "outil_ø" into "outil_Ã¸" (tip_frame named no link),
+    # and a UTF-16 declaration made the text unreadable.
+    tip = "outil_\N{LATIN SMALL LETTER O WITH STROKE}"
+    urdf = robot(joint("j1", "base", tip, xyz="0.3 0 0"), links=["base", tip]).replace(
+        '<?xml version="1.0"?>', f'<?xml version="1.0" encoding="{declared}"?>'
+    )
+    r = registry.load_inline(urdf, tip, "base")
+    assert r.joint_names == ("j1",)
+    np.testing.assert_allclose(r.fk(np.array([0.5]))[:3, 3], [0.3, 0.0, 0.0], atol=1e-15)
