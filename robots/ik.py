@@ -185,6 +185,24 @@ def _polish(robot: Robot, T: np.ndarray, qs: np.ndarray, held: dict[int, float])
     ).reshape(-1, robot.dof)
 
 
+def _verified(robot: Robot, T: np.ndarray, Q: np.ndarray, held: dict[int, float]) -> np.ndarray:
+    """The candidate rows that reproduce ``T`` to ``VERIFY_POSITION`` / ``VERIFY_ORIENTATION`` (near
+    misses polished first) with the held joints at their values."""
+    if not len(Q):
+        return Q
+    pe, oe = pose_errors(robot, Q, T)
+    bad = (pe > VERIFY_POSITION) | (oe > VERIFY_ORIENTATION)
+    fix = bad & (pe < POLISH_BELOW)
+    if fix.any():
+        Q = Q.copy()
+        Q[fix] = _polish(robot, T, Q[fix], held)
+        pe, oe = pose_errors(robot, Q, T)
+    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    for j, v in held.items():
+        good &= np.abs(Q[:, j] - v) <= 1e-12
+    return Q[good]
+
+
 def _wrap(d: np.ndarray, revolute: np.ndarray) -> np.ndarray:
     """Differences with revolute components wrapped into [-pi, pi)."""
     return np.where(revolute, (d + math.pi) % TWO_PI - math.pi, d)
@@ -252,19 +270,16 @@ def ik_all(
     held = held_values(robot, seed, fixed_joints)
     Q, solver = _candidates(robot, T, seed, held)
     warnings: list[str] = []
-    if len(Q):
-        pe, oe = pose_errors(robot, Q, T)
-        bad = (pe > VERIFY_POSITION) | (oe > VERIFY_ORIENTATION)
-        fix = bad & (pe < POLISH_BELOW)
-        if fix.any():
-            Q[fix] = _polish(robot, T, Q[fix], held)
-            pe, oe = pose_errors(robot, Q, T)
-        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
-        for j, v in held.items():
-            good &= np.abs(Q[:, j] - v) <= 1e-12
-        Q = Q[good]
-    Q = _dedupe(Q, robot.revolute)
+    Q = _dedupe(_verified(robot, T, Q, held), robot.revolute)
     inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
+    if not len(inside) and solver == "analytic":
+        # At a singular pose the closed form returns representatives of a continuum of solutions,
+        # which may all lie outside the limits while others inside exist (an iiwa stretched out
+        # at q = 0, its home: "reachable only with joint 2 outside its limits"). The numeric
+        # search, seeded at the seed and home, finds those.
+        found = _verified(robot, T, _numeric(robot, T, seed, held), held)
+        Q = _dedupe(np.vstack([Q, found]), robot.revolute)
+        inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
     outside = len(Q) - len(inside)
     Q = _turns(Q, seed, robot.position_limits, robot.revolute, True) if turns else inside
     order = np.argsort(np.linalg.norm(Q - seed, axis=1), kind="stable")

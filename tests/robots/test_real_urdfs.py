@@ -172,3 +172,26 @@ def test_encoding_declaration_does_not_re_decode_the_text(declared: str) -> None
     r = registry.load_inline(urdf, tip, "base")
     assert r.joint_names == ("j1",)
     np.testing.assert_allclose(r.fk(np.array([0.5]))[:3, 3], [0.3, 0.0, 0.0], atol=1e-15)
+
+
+# --- analytic IK at a singular pose whose representatives lie outside the limits ------------------
+
+
+def test_analytic_ik_finds_the_stretched_out_home_inside_the_limits() -> None:
+    # PyBullet's iiwa at q = 0 (its home: stretched straight up, singular). EAIK, joint 7 held at
+    # 0, returned representatives of the continuum of solutions with joint 2 outside its limits
+    # only: IK of the home pose, seeded at home, answered 422 joint_limit.
+    r = registry.load_inline(fixture("kuka_iiwa.urdf"), "lbr_iiwa_link_7", "lbr_iiwa_link_0")
+    assert r.ik_solver == "analytic" and np.all(r.home == 0.0)
+    T = r.fk(r.home)
+    sols = ik.ik_all(r, T)
+    assert sols.solver == "analytic" and len(sols)
+    np.testing.assert_allclose(sols.positions[0], r.home, atol=1e-9)
+    lo, hi = r.position_limits.T
+    assert np.all((sols.positions >= lo) & (sols.positions <= hi))
+    reference = pin.buildModelFromXML(fixture("kuka_iiwa.urdf"))
+    data = reference.createData()
+    tip = reference.getFrameId("lbr_iiwa_link_7", pin.FrameType.BODY)
+    for q in sols.positions:
+        pin.framesForwardKinematics(reference, data, q)
+        np.testing.assert_allclose(data.oMf[tip].homogeneous, T, atol=1e-9)
