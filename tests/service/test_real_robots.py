@@ -305,3 +305,129 @@ def test_describe_real_urdfs_that_were_refused_or_failed(client: TestClient) -> 
             client, "/v1/fk", {"robot": inline("so100"), "positions": d["home"], "frames": True}
         )["frames"]
     ]
+
+
+SWEEP: dict[str, tuple[str, str, str]] = {
+    **{name: ARMS[name][:3] for name in ARMS},
+    "ur5_world_ee": ("ur5_robot.urdf", "world", "ee_link"),
+    "panda_finger": ("panda.urdf", "panda_link0", "panda_leftfinger"),  # 7 revolute + prismatic
+    "jaco2_fingertip": ("kinova_j2s6s200.urdf", "j2s6s200_link_base", "j2s6s200_link_finger_tip_1"),
+    "pendulum": ("double_pendulum_continuous.urdf", "base_link", "link2"),  # continuous joints
+    "quadruped_leg": ("quadruped.urdf", "base_link", "FL_contact"),  # a joint with range [0, 0]
+    "gen3_lite": ("kortex_gen3_lite.urdf", "BASE", "END_EFFECTOR"),
+    "two_joint": ("two_joint_robot.urdf", "base_link", "link_23_cyl"),  # planar: position_xy
+}
+PLANNING_CODES = {
+    "unreachable",
+    "joint_limit",
+    "branch_flip",
+    "singularity",
+    "joint_rate_limit",
+    "infeasible",
+    "no_convergence",
+    "collision",
+    "validation",
+}
+
+
+def _finite(value: Any) -> bool:
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, dict):
+        return all(_finite(v) for v in value.values())
+    if isinstance(value, list):
+        return all(_finite(v) for v in value)
+    return True
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(SWEEP))
+def test_every_endpoint_never_fails_badly(client: TestClient, name: str) -> None:
+    """Every endpoint, every method, with and without an environment: 200 with finite numbers, or
+    a 422 planning failure whose problem names its code (and, for validation, the field)."""
+    file, base, tip = SWEEP[name]
+    robot = {
+        "urdf": (FIXTURES / file).read_text(encoding="utf-8"),
+        "base_frame": base,
+        "tip_frame": tip,
+    }
+    d = ok(client, "/v1/robots/describe", {"robot": robot})
+    n = d["dof"]
+    lo, hi = np.array(d["limits"]["position"]).T
+    lo2, hi2 = np.maximum(lo, -3.0), np.minimum(hi, 3.0)
+    qa = np.clip((lo2 + hi2) / 2 + 0.25 * (hi2 - lo2) * np.cos(np.arange(n) + 0.5), lo, hi)
+    qb = np.clip((lo2 + hi2) / 2 - 0.2 * (hi2 - lo2) * np.sin(np.arange(n) + 1.5), lo, hi)
+    fk = ok(client, "/v1/fk", {"robot": robot, "positions": qa.tolist(), "frames": True})
+    at, turn = np.array(fk["pose"]["position"]), fk["pose"]["orientation"]
+    goal = {"position": (at + np.array([0.01, 0.0, 0.01])).tolist(), "orientation": turn}
+    box = {
+        "name": "box",
+        "shape": {"type": "box", "size": [0.1, 0.1, 0.1]},
+        "pose": {
+            "position": (at + np.array([0.15, 0.0, 0.0])).tolist(),
+            "orientation": [0, 0, 0, 1],
+        },
+    }
+    floor = {"name": "floor", "shape": {"type": "halfspace", "normal": [0, 0, 1], "offset": -2.0}}
+    environments = [None, {"obstacles": [box, floor], "clearance": 0.005}]
+    requests: list[tuple[str, dict[str, Any]]] = [
+        ("/v1/ik", {"robot": robot, "pose": fk["pose"], "all": True, "turns": True}),
+        ("/v1/ik", {"robot": robot, "pose": {"position": (at * 10).tolist(), "orientation": turn}}),
+        (
+            "/v1/trajectories/spline",
+            {"robot": robot, "waypoints": [qa.tolist(), qb.tolist(), qa.tolist()]},
+        ),
+    ]
+    for env in environments:
+        extra = {} if env is None else {"environment": env}
+        requests.append(("/v1/distance", {"robot": robot, "positions": qa.tolist(), **extra}))
+        for profile in ("quintic", "trapezoidal", "jerk_limited"):
+            body = {
+                "robot": robot,
+                "profile": profile,
+                "start": {"positions": qa.tolist()},
+                "goal": {"positions": qb.tolist()},
+                "limits": {"jerk": [100.0] * n},
+                **extra,
+            }
+            requests.append(("/v1/trajectories/joint", body))
+        task = {
+            "robot": robot,
+            "start": {"positions": qa.tolist()},
+            "goal": {"pose": goal},
+            **extra,
+        }
+        for method in (
+            "sampled",
+            "bounded_deviation",
+            "bounded_deviation_nlp",
+            "resolved_rate",
+            "resolved_rate_dls",
+        ):
+            requests.append(("/v1/trajectories/cartesian", {**task, "method": method}))
+        requests.append(("/v1/compare", {"task": task, "include_trajectories": True}))
+        segments = [
+            {"type": "ptp", "goal": {"positions": qb.tolist()}},
+            {"type": "ptp", "goal": {"pose": goal}},
+            {"type": "lin", "goal": {"positions": qa.tolist()}},
+        ]
+        requests.append(
+            (
+                "/v1/trajectories/program",
+                {
+                    "robot": robot,
+                    "start": {"positions": qa.tolist()},
+                    "segments": segments,
+                    **extra,
+                },
+            )
+        )
+    for url, body in requests:
+        r = client.post(url, json=body)
+        assert r.status_code in (200, 422), f"{url}: {r.status_code} {r.text[:300]}"
+        answer = r.json()
+        assert _finite(answer), url
+        if r.status_code == 422:
+            assert answer["code"] in PLANNING_CODES, (url, answer)
+            if answer["code"] == "validation":
+                assert answer["errors"] and answer["errors"][0]["loc"], (url, answer)
