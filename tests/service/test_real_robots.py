@@ -297,6 +297,27 @@ def test_describe_real_urdfs_that_were_refused_or_failed(client: TestClient) -> 
     )
     assert d["joint_names"] == ["FL_HFE", "FL_KFE"]
     assert d["limits"]["position"] == [[-10.0, 10.0], [0.0, 0.0]]
+    # two Pandas with hands: 89 collision primitives were over the bound of 64 (422 too_large for
+    # every trajectory, even with self_collision false)
+    dual = {
+        "urdf": (FIXTURES / "dual_panda.urdf").read_text(encoding="utf-8"),
+        "base_frame": "panda_1_link0",
+        "tip_frame": "panda_1_hand",
+    }
+    d = ok(client, "/v1/robots/describe", {"robot": dual})
+    assert len(d["collision_geometry"]) == 89 and d["dof"] == 7
+    q0 = [0.0, -0.5, 0.0, -2.0, 0.0, 1.5, 0.7]
+    plan = ok(
+        client,
+        "/v1/trajectories/joint",
+        {
+            "robot": dual,
+            "profile": "quintic",
+            "start": {"positions": q0},
+            "goal": {"positions": [0.3, *q0[1:]]},
+        },
+    )
+    assert plan["diagnostics"]["min_clearance"] > 0.0
     # the SO-ARM100: a link and a joint both named "gripper" (the jaw's joint)
     d = ok(client, "/v1/robots/describe", {"robot": inline("so100")})
     assert d["joint_names"][-1] == "gripper" and "gripper" in [
