@@ -312,11 +312,13 @@ def _distinct_per_label(Q: np.ndarray, labels: tuple[str | None, ...]) -> np.nda
     """``(k,)`` mask keeping each row unless an earlier kept row has its label and lies within
     ``NEAR`` of it in every joint (no wrapping: 2 pi variants from ``turns`` stay)."""
     keep = np.ones(len(Q), dtype=bool)
-    for i in range(1, len(Q)):
-        earlier = np.flatnonzero(keep[:i])
-        same = [k for k in earlier if labels[k] == labels[i]]
-        if same and (np.abs(Q[same] - Q[i]).max(axis=1) < NEAR).any():
+    kept: dict[str | None, list[int]] = {}
+    for i, label in enumerate(labels):
+        rows = kept.setdefault(label, [])
+        if rows and (np.abs(Q[rows] - Q[i]).max(axis=1) < NEAR).any():
             keep[i] = False
+        else:
+            rows.append(i)
     return keep
 
 
