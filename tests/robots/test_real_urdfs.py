@@ -195,3 +195,24 @@ def test_analytic_ik_finds_the_stretched_out_home_inside_the_limits() -> None:
     for q in sols.positions:
         pin.framesForwardKinematics(reference, data, q)
         np.testing.assert_allclose(data.oMf[tip].homogeneous, T, atol=1e-9)
+
+
+# --- a 7R arm whose held joint decomposes only at 0 -------------------------------------------------
+
+
+def test_7r_analytic_ik_holds_a_joint_that_decomposes_at_every_value() -> None:
+    # The LBR iiwa 14 R820 (kuka_experimental): with joint a6 held at 0, axes 5 and 7 line up and
+    # EAIK decomposes the rest; at any other a6 it does not, yet a6 was chosen (probed at 0 only)
+    # and the "analytic" solver missed the configuration a pose came from (2 of 60 poses).
+    r = registry.load_inline(fixture("lbr_iiwa_14_r820.urdf"), "tool0", "base_link")
+    assert r.ik_solver == "analytic" and r.redundant_joints != ("joint_a6",)
+    held = [r.joint_names.index(n) for n in r.redundant_joints]
+    lo, hi = r.position_limits.T
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        q = lo + (hi - lo) * rng.random(7)
+        fixed = {r.joint_names[j]: float(q[j]) for j in held}
+        sols = ik.ik_all(r, r.fk(q), seed=r.home, fixed_joints=fixed)
+        assert sols.solver == "analytic"
+        d = np.abs((sols.positions - q + np.pi) % (2 * np.pi) - np.pi).max(axis=1)
+        assert d.min() < 1e-6, q  # near a4 = 0 the held chain is ill-conditioned: 3e-7
