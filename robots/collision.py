@@ -55,8 +55,10 @@ MOTION_TOLERANCE = 1e-7
 """[m] A segment whose motion bound is below this and whose ends are clear counts as clear."""
 MAX_LEVELS = 60
 """Most halvings of one returned segment (2^-60 of its motion: far below ``MOTION_TOLERANCE``)."""
-MAX_CAPSULES = 64
-"""Most collision primitives of an inline URDF (its self pairs grow with the square)."""
+MAX_CAPSULES = 128
+"""Most collision primitives of an inline URDF (its self pairs grow with the square: building the
+allowed pairs took 0.4 s for 92 primitives, 1.0 s for 184, 2.3 s for 276, once per robot). 128 takes
+real robots with two arms and hands (franka_description's dual Panda has 89; 64 refused it)."""
 CHUNK_ENTRIES = 200_000
 """Most pair distances computed in one vectorized call (bounds the memory of a check)."""
 MAX_KEY_ENTRIES = 5_000_000
@@ -149,13 +151,19 @@ class RobotCollision:
 
 
 # --- building the robot's capsules ---------------------------------------------------------------
+def _link_frame_id(model: pin.Model, link: str) -> int:
+    """The frame of link ``link``, looked up by kind: a joint may share a link's name (Baxter's
+    ``right_hand``), and pinocchio's untyped look-up then fails ("Several frames match")."""
+    return model.getFrameId(link, pin.FrameType.BODY)
+
+
 def _attach(model: pin.Model, capsules: Sequence[Capsule]) -> RobotCollision:
     """Capsules given in link frames -> capsules in their parent joint frames."""
     links, joints, a, b, r = [], [], [], [], []
     for c in capsules:
-        if not model.existFrame(c.link):
+        if not model.existFrame(c.link, pin.FrameType.BODY):
             continue  # a link the reduced model does not hold (not on the base -> tip chain)
-        frame = model.frames[model.getFrameId(c.link)]
+        frame = model.frames[_link_frame_id(model, c.link)]
         M = frame.placement
         links.append(c.link)
         joints.append(frame.parentJoint)
@@ -185,7 +193,7 @@ def robot_collision(robot: Robot, urdf: str | None = None) -> RobotCollision:
             field=("robot", "urdf"),
             extra={"limit_primitives": MAX_CAPSULES},
         )
-    held = [m for m in mesh_only if robot.model.existFrame(m)]
+    held = [m for m in mesh_only if robot.model.existFrame(m, pin.FrameType.BODY)]
     return RobotCollision(rc.links, rc.joints, rc.a, rc.b, rc.radius, tuple(held))
 
 
@@ -686,7 +694,7 @@ def link_shapes(
     model = robot.model
     rows = []
     for i, link in enumerate(geometry.links):
-        M_inv = model.frames[model.getFrameId(link)].placement.inverse()
+        M_inv = model.frames[_link_frame_id(model, link)].placement.inverse()
         a, b = M_inv.act(geometry.a[i]), M_inv.act(geometry.b[i])
         length = float(np.linalg.norm(b - a))
         z = (b - a) / length if length > 1e-12 else np.array([0.0, 0.0, 1.0])

@@ -40,6 +40,11 @@ SAME = 1e-6
 """[rad or m]: two solutions closer than this in every joint (modulo 2 pi) are one."""
 SINGULAR = 1e-6
 """Smallest Jacobian singular value below which a solution is reported near-singular."""
+NEAR = 1e-3
+"""[rad or m]: two verified solutions with the same configuration label closer than this in every
+joint are one. At a singular pose the numeric search's seeds converge to points up to ~sqrt(1e-9)
+apart (an inline planar arm stretched out gave four "solutions" within 6e-6 rad, two per label);
+genuinely distinct solutions of one label exist only across 2 pi turns."""
 NUMERIC_SEEDS = 24
 """Pseudo-random seeds of the numeric all-solutions search, besides the request seed and home."""
 MAX_TURN_VARIANTS = 4096
@@ -180,6 +185,24 @@ def _polish(robot: Robot, T: np.ndarray, qs: np.ndarray, held: dict[int, float])
     ).reshape(-1, robot.dof)
 
 
+def _verified(robot: Robot, T: np.ndarray, Q: np.ndarray, held: dict[int, float]) -> np.ndarray:
+    """The candidate rows that reproduce ``T`` to ``VERIFY_POSITION`` / ``VERIFY_ORIENTATION`` (near
+    misses polished first) with the held joints at their values."""
+    if not len(Q):
+        return Q
+    pe, oe = pose_errors(robot, Q, T)
+    bad = (pe > VERIFY_POSITION) | (oe > VERIFY_ORIENTATION)
+    fix = bad & (pe < POLISH_BELOW)
+    if fix.any():
+        Q = Q.copy()
+        Q[fix] = _polish(robot, T, Q[fix], held)
+        pe, oe = pose_errors(robot, Q, T)
+    good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
+    for j, v in held.items():
+        good &= np.abs(Q[:, j] - v) <= 1e-12
+    return Q[good]
+
+
 def _wrap(d: np.ndarray, revolute: np.ndarray) -> np.ndarray:
     """Differences with revolute components wrapped into [-pi, pi)."""
     return np.where(revolute, (d + math.pi) % TWO_PI - math.pi, d)
@@ -247,19 +270,16 @@ def ik_all(
     held = held_values(robot, seed, fixed_joints)
     Q, solver = _candidates(robot, T, seed, held)
     warnings: list[str] = []
-    if len(Q):
-        pe, oe = pose_errors(robot, Q, T)
-        bad = (pe > VERIFY_POSITION) | (oe > VERIFY_ORIENTATION)
-        fix = bad & (pe < POLISH_BELOW)
-        if fix.any():
-            Q[fix] = _polish(robot, T, Q[fix], held)
-            pe, oe = pose_errors(robot, Q, T)
-        good = (pe <= VERIFY_POSITION) & (oe <= VERIFY_ORIENTATION)
-        for j, v in held.items():
-            good &= np.abs(Q[:, j] - v) <= 1e-12
-        Q = Q[good]
-    Q = _dedupe(Q, robot.revolute)
+    Q = _dedupe(_verified(robot, T, Q, held), robot.revolute)
     inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
+    if not len(inside) and solver == "analytic":
+        # At a singular pose the closed form returns representatives of a continuum of solutions,
+        # which may all lie outside the limits while others inside exist (an iiwa stretched out
+        # at q = 0, its home: "reachable only with joint 2 outside its limits"). The numeric
+        # search, seeded at the seed and home, finds those.
+        found = _verified(robot, T, _numeric(robot, T, seed, held), held)
+        Q = _dedupe(np.vstack([Q, found]), robot.revolute)
+        inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
     outside = len(Q) - len(inside)
     Q = _turns(Q, seed, robot.position_limits, robot.revolute, True) if turns else inside
     order = np.argsort(np.linalg.norm(Q - seed, axis=1), kind="stable")
@@ -283,7 +303,23 @@ def ik_all(
         if fam is not None
         else (None,) * len(Q)
     )
-    return IKSolutions(Q, labels, pe, oe, solver, tuple(warnings), outside)
+    keep = _distinct_per_label(Q, labels)
+    labels = tuple(label for label, k in zip(labels, keep, strict=True) if k)
+    return IKSolutions(Q[keep], labels, pe[keep], oe[keep], solver, tuple(warnings), outside)
+
+
+def _distinct_per_label(Q: np.ndarray, labels: tuple[str | None, ...]) -> np.ndarray:
+    """``(k,)`` mask keeping each row unless an earlier kept row has its label and lies within
+    ``NEAR`` of it in every joint (no wrapping: 2 pi variants from ``turns`` stay)."""
+    keep = np.ones(len(Q), dtype=bool)
+    kept: dict[str | None, list[int]] = {}
+    for i, label in enumerate(labels):
+        rows = kept.setdefault(label, [])
+        if rows and (np.abs(Q[rows] - Q[i]).max(axis=1) < NEAR).any():
+            keep[i] = False
+        else:
+            rows.append(i)
+    return keep
 
 
 @dataclass(frozen=True)

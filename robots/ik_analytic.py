@@ -67,6 +67,8 @@ class AnalyticIK:
                 self._held_cache.move_to_end(key)
                 return robot
         robot = _eaik.Robot(self.H.T, self.P.T, self.R_tip, [(self.held, key)], True)
+        if not robot.has_known_decomposition():  # a special held value: robots.ik goes numeric
+            raise RuntimeError("EAIK knows no decomposition at this held value")
         with self._lock:
             self._held_cache[key] = robot
             while len(self._held_cache) > 64:
@@ -91,9 +93,24 @@ class AnalyticIK:
         return [np.asarray(s.Q, dtype=float).reshape(-1, n) for s in out]
 
 
+HELD_PROBES = (0.7, -1.9, 2.6)
+"""[rad]: held values at which a 7R arm's held joint must leave a chain EAIK decomposes, besides 0.
+At q = 0 a URDF's axes often line up (a KUKA LBR iiwa's joints 5 and 7): holding joint 6 at 0
+decomposes ("spherical, second two intersecting") but at any other value it does not, and EAIK then
+missed solutions of poses it was asked to solve (robotics-toolbox's lbr_iiwa_14_r820)."""
+
+
+def _decomposes(H: np.ndarray, P: np.ndarray, R: np.ndarray, held: int, value: float) -> bool:
+    try:
+        return bool(_eaik.Robot(H.T, P.T, R, [(held, value)], True).has_known_decomposition())
+    except (RuntimeError, ValueError):
+        return False
+
+
 def build(chain: Chain, held_candidates: tuple[int, ...] = ()) -> AnalyticIK | None:
     """EAIK for an all-revolute chain of 6 joints, or of 7 with one of ``held_candidates`` held (the
-    first one EAIK can decompose); None when EAIK knows no decomposition."""
+    first one EAIK decomposes at 0 and at every ``HELD_PROBES`` value); None when EAIK knows no
+    decomposition."""
     n = len(chain.q_index)
     if not chain.revolute.all() or n not in (6, 7):
         return None
@@ -105,6 +122,9 @@ def build(chain: Chain, held_candidates: tuple[int, ...] = ()) -> AnalyticIK | N
             solver = _eaik.Robot(H.T, P.T, T[:3, :3], fixed, True)
         except (RuntimeError, ValueError):
             continue
-        if solver.has_known_decomposition():
-            return AnalyticIK(solver.get_kinematic_family(), held, H, P, T[:3, :3], solver)
+        if not solver.has_known_decomposition():
+            continue
+        if held is not None and not all(_decomposes(H, P, T[:3, :3], held, v) for v in HELD_PROBES):
+            continue
+        return AnalyticIK(solver.get_kinematic_family(), held, H, P, T[:3, :3], solver)
     return None

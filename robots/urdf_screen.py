@@ -12,7 +12,9 @@ Rules, checked in this order (each rejection says what is wrong and never echoes
 5. Joint types: revolute, prismatic, continuous and fixed only; parent and child links exist; the
    links form one tree (one root, every link has at most one parent, no cycles).
 6. Numbers: origins and axes are finite (``|xyz| <= 1e4`` m), axes non-zero; revolute and prismatic
-   joints have finite ``lower <= upper`` limits; velocity and effort limits, when present, are 0
+   joints have a ``<limit>`` with finite bounds (a missing bound is 0, as the URDF specification,
+   urdfdom and pinocchio have it), ``lower <= upper`` on the robot's chain (joints off it are
+   locked at 0, so a reversed range there, as in real URDFs' pan-tilt units, is harmless); velocity and effort limits, when present, are 0
    (no limit given: the service's default) or >= 1e-6 like a request's limits, so no URDF limit
    can overflow a ratio (a 1e-300 rad/s limit made spline knot times infinite: HTTP 500).
 7. ``tip_frame`` and ``base_frame`` are links; the base is fixed to the root (no movable joint between
@@ -89,11 +91,12 @@ def _floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> 
 
 
 def _parse(urdf: str) -> ET.Element:
-    """Parse with DTDs, entities and external references forbidden."""
+    """Parse with DTDs, entities and external references forbidden. The text is parsed as text:
+    it arrived decoded (JSON), so an ``encoding="ISO-8859-1"`` declaration in it must not make the
+    parser decode its UTF-8 bytes again (a link named "outil_ø" came out as two Latin-1
+    characters, so tip_frame named no link)."""
     try:
-        return DET.fromstring(
-            urdf.encode("utf-8"), forbid_dtd=True, forbid_entities=True, forbid_external=True
-        )
+        return DET.fromstring(urdf, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DefusedXmlException:
         raise InvalidURDF(
             "URDF with a DTD, entity declarations or external references is refused", field=FIELD
@@ -148,12 +151,11 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
     if jtype == "continuous":
         lower, upper = -CONTINUOUS_LIMIT, CONTINUOUS_LIMIT
     else:
-        if lim is None or lim.get("lower") is None or lim.get("upper") is None:
-            raise InvalidURDF(f"{where} ({jtype}) needs <limit lower=... upper=...>", field=FIELD)
+        if lim is None:
+            raise InvalidURDF(f"{where} ({jtype}) needs a <limit> element", field=FIELD)
+        # the URDF specification's defaults (urdfdom, pinocchio): a missing bound is 0
         (lower,) = _floats(lim.get("lower"), 1, f"{where} lower limit", (0.0,))
         (upper,) = _floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
-        if lower > upper:
-            raise InvalidURDF(f"{where} has lower limit > upper limit", field=FIELD)
         lower, upper = max(lower, -MAX_COORDINATE), min(upper, MAX_COORDINATE)
     ET.SubElement(
         out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity), effort="0"
@@ -269,6 +271,14 @@ def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
         raise InvalidURDF(
             "no movable joint lies between the root and tip_frame", field=("robot", "tip_frame")
         )
+    for element in out.iter("joint"):  # joints off the chain are locked at 0: their range is moot
+        limit = element.find("limit")
+        if element.get("name") in chain and limit is not None:
+            if float(limit.get("lower", "0")) > float(limit.get("upper", "0")):
+                raise InvalidURDF(
+                    f"joint '{_name(element.get('name', ''))}' has lower limit > upper limit",
+                    field=FIELD,
+                )
     return ScreenedURDF(
         xml=ET.tostring(out, encoding="unicode"),
         chain=chain,

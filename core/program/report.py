@@ -98,6 +98,9 @@ def report(
             results.append(SegmentResult(i, seg.type, t_prev, t_prev, None, {"skipped": True}))
             continue
         sp = planned[i]
+        if (i, False) not in spans:  # planned, yet no joint moves (nothing was timed): zero length
+            results.append(SegmentResult(i, seg.type, t_prev, t_prev, None, {"skipped": True}))
+            continue
         t0, t1 = spans[(i, False)]
         blend = spans.get((i, True))
         diag: dict[str, Any] = {

@@ -91,6 +91,8 @@ def layout(task: ProgramTask) -> Layout:
         else:
             raise InputError("give goal.pose or goal.positions", field=("segments", i, "goal"))
         dp, dr = pose_error(T_prev, T_goal)
+        if robot.task_space == "position_xy":  # only x and y count: a z or turn alone is no motion
+            dp, dr = float(np.linalg.norm(T_goal[:2, 3] - T_prev[:2, 3])), 0.0
         if seg.type == "circ":
             if dp < ZERO_LENGTH and dr < ZERO_LENGTH:
                 length = 0.0

@@ -29,9 +29,11 @@ def capsules_from_urdf(urdf: str) -> tuple[list[Capsule], list[str]]:
 
     sphere: exact; cylinder (radius r, length l along z): the capsule of radius r over the axis
     shortened by r at each end when l > 2r, else the sphere around it; box: the capsule around its
-    longest axis that contains it. Both enclose the shape (conservative).
+    longest axis that contains it. Both enclose the shape (conservative). A primitive of zero size
+    (a sphere of radius 0, a box of size 0 0 0, as real URDFs write for placeholder links) has no
+    volume and is skipped; a box flat in one or two axes keeps its capsule.
     """
-    root = DET.fromstring(urdf.encode("utf-8"), forbid_dtd=True, forbid_entities=True)
+    root = DET.fromstring(urdf, forbid_dtd=True, forbid_entities=True)  # text, as the screen
     capsules: list[Capsule] = []
     mesh_only: list[str] = []
     for link in root.findall("link"):
@@ -48,6 +50,8 @@ def capsules_from_urdf(urdf: str) -> tuple[list[Capsule], list[str]]:
                     found_mesh = found_mesh or shape.tag == "mesh"
                     continue
                 ra, rb, r = cap
+                if r == 0.0:
+                    continue  # zero size: no volume to check (never a zero-radius capsule)
                 capsules.append(Capsule(name, tuple(M.act(ra)), tuple(M.act(rb)), r))  # type: ignore[arg-type]
                 found_primitive = True
         if found_mesh and not found_primitive:
@@ -55,14 +59,14 @@ def capsules_from_urdf(urdf: str) -> tuple[list[Capsule], list[str]]:
     return capsules, mesh_only
 
 
-def _positive(el: ET.Element, attr: str) -> float:
+def _size(el: ET.Element, attr: str) -> float:
     try:
         v = float(el.get(attr, "nan"))
     except ValueError:
         v = math.nan
-    if not (math.isfinite(v) and 0 < v <= 1e3):
+    if not (math.isfinite(v) and 0 <= v <= 1e3):
         raise InputError(
-            f"a <collision> {el.tag} needs {attr} in (0, 1000] m", field=("robot", "urdf")
+            f"a <collision> {el.tag} needs {attr} in [0, 1000] m", field=("robot", "urdf")
         )
     return v
 
@@ -70,9 +74,9 @@ def _positive(el: ET.Element, attr: str) -> float:
 def _shape_capsule(shape: ET.Element) -> tuple[np.ndarray, np.ndarray, float] | None:
     o = np.zeros(3)
     if shape.tag == "sphere":
-        return o, o, _positive(shape, "radius")
+        return o, o, _size(shape, "radius")
     if shape.tag == "cylinder":
-        r, h = _positive(shape, "radius"), _positive(shape, "length")
+        r, h = _size(shape, "radius"), _size(shape, "length")
         if h > 2 * r:
             e = np.array([0.0, 0.0, h / 2 - r])
             return -e, e, math.hypot(r, r)  # covers the rim: distance sqrt(r^2 + r^2) from the end
@@ -82,9 +86,9 @@ def _shape_capsule(shape: ET.Element) -> tuple[np.ndarray, np.ndarray, float] | 
             size = np.array([float(v) for v in (shape.get("size") or "").split()])
         except ValueError:
             size = np.array([])
-        if size.shape != (3,) or not np.all(np.isfinite(size) & (size > 0) & (size <= 1e3)):
+        if size.shape != (3,) or not np.all(np.isfinite(size) & (size >= 0) & (size <= 1e3)):
             raise InputError(
-                "a <collision> box needs 3 sizes in (0, 1000] m", field=("robot", "urdf")
+                "a <collision> box needs 3 sizes in [0, 1000] m", field=("robot", "urdf")
             )
         k = int(np.argmax(size))
         others = np.delete(size, k) / 2

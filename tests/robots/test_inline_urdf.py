@@ -178,7 +178,7 @@ def test_lower_above_upper() -> None:
 
 def test_revolute_and_prismatic_need_limits() -> None:
     for jtype in ("revolute", "prismatic"):
-        reject(robot(joint("j", "l0", "l1", jtype, limit=""), links=["l0", "l1"]), "needs <limit")
+        reject(robot(joint("j", "l0", "l1", jtype, limit=""), links=["l0", "l1"]), "needs a <limit")
 
 
 def test_negative_or_non_finite_velocity_limit() -> None:

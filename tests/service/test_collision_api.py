@@ -9,6 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from robots import registry
+from robots.collision import MAX_CAPSULES
 from robots.geometry import ROBOT_GEOMETRY
 from service.app import create_app
 from service.environment import checker
@@ -459,14 +460,14 @@ def test_too_many_inline_collision_primitives_is_too_large(client) -> None:
     spheres = "".join(
         f'<collision><origin xyz="{0.01 * k} 0 0"/><geometry><sphere radius="0.01"/></geometry>'
         "</collision>"
-        for k in range(65)
+        for k in range(MAX_CAPSULES + 1)
     )
     urdf = f"""<robot name="many"><link name="base"/><link name="l1">{spheres}</link>
       <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
         <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint></robot>"""
     body = {"robot": {"urdf": urdf, "tip_frame": "l1", "base_frame": "base"}, "positions": [0.0]}
     err = problem(client.post("/v1/distance", json=body), 422, "too_large")
-    assert err["limit_primitives"] == 64
+    assert err["limit_primitives"] == MAX_CAPSULES == 128
 
 
 def test_program_collision_names_its_segment_and_s(client) -> None:
