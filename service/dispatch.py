@@ -23,8 +23,9 @@ INLINE_NUMBERS = 20_000
 
 def answer_numbers(body: Any, dof: int) -> int | None:
     """Numbers in the answer of a joint-space request with ``samples`` or ``duration`` and
-    ``sample_period``; ``None`` when only planning tells (a time-optimal duration) or a robot or an
-    environment makes the plan more than joint math."""
+    ``sample_period``, when at most ``INLINE_NUMBERS``; ``None`` when more, when only planning
+    tells (a time-optimal duration) or when a robot or an environment makes the plan more than
+    joint math."""
     if getattr(body, "robot", None) is not None or getattr(body, "environment", None) is not None:
         return None
     samples = getattr(body, "samples", None)
@@ -32,8 +33,9 @@ def answer_numbers(body: Any, dof: int) -> int | None:
         duration, period = getattr(body, "duration", None), getattr(body, "sample_period", None)
         if duration is None or period is None:
             return None
-        samples = int(duration / period) + 2
-    return 3 * dof * samples
+        samples = duration / period + 2.0  # a subnormal period overflows to inf: never inline
+    numbers = 3.0 * dof * samples
+    return int(numbers) if numbers <= INLINE_NUMBERS else None
 
 
 async def run_plan(plan: Callable[[], T], numbers: int | None) -> T:
