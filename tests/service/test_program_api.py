@@ -326,3 +326,80 @@ def test_s_curve_lin_through_the_api(client):
     body["segments"][0]["max_linear_jerk"] = -1.0
     problem = _problem(client.post(URL, json=body), "validation")
     assert problem["errors"][0]["loc"][-1] == "max_linear_jerk"
+
+
+def test_zero_length_segments_at_the_end_are_in_the_answer(client):
+    """Every requested segment is in ``segments`` (trailing zero-length ones were left out): at the
+    end of the answer, ``start_time == end_time``, skipped, with a warning."""
+    body = {"robot": "ur5", "start": {"positions": HOME},
+            "segments": [{"type": "lin", "goal": {"pose": pose(0.1, 0, 0)}},
+                         {"type": "lin", "goal": {"pose": pose(0.1, 0, 0)}},
+                         {"type": "ptp", "goal": {"pose": pose(0.1, 0, 0)}}]}  # fmt: skip
+    r = client.post(URL, json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    end = out["diagnostics"]["duration"]
+    assert [s["index"] for s in out["segments"]] == [0, 1, 2]
+    for seg in out["segments"][1:]:
+        assert seg["start_time"] == seg["end_time"] == end and seg["diagnostics"]["skipped"]
+        assert any(f"segment {seg['index']} has zero length" in w
+                   for w in out["diagnostics"]["warnings"])  # fmt: skip
+    ProgramResponse.model_validate(out)
+
+
+def _ball(center: np.ndarray, radius: float) -> dict:
+    return {"name": "ball", "shape": {"type": "sphere", "radius": radius},
+            "pose": {"position": center.tolist(), "orientation": [0.0, 0.0, 0.0, 1.0]}}  # fmt: skip
+
+
+@pytest.mark.parametrize("second", ["lin", "ptp"])
+def test_a_program_cut_by_a_collision_comes_to_rest_on_its_path(client, second):
+    """``allow_partial`` with a ball across the second move (a LIN, or a trapezoidal PTP): was cut
+    at the last clear returned point still moving, with a warning. Now the stretch holding the
+    contact is re-timed to rest at that point along the same path: zero velocity and acceleration
+    at the end, the limits held, the first stretch exactly as planned without the ball, the rest
+    on the second move's path (line; joint segment), clear of the ball, ``fraction`` its share."""
+    lift = {"type": "lin", "goal": {"pose": pose(0, 0, 0.1)}}
+    free = {"robot": "ur5", "start": {"positions": HOME}, "sample_period": 0.004,
+            "segments": [lift, {"type": "lin", "goal": {"pose": pose(0, 0.3, 0.1)}}]}  # fmt: skip
+    if second == "ptp":
+        free["segments"][1] = {"type": "ptp", "goal": {"pose": pose(0, 0.3, 0.1)},
+                               "profile": "trapezoidal"}  # fmt: skip
+    planned = client.post(URL, json=free).json()
+    q = np.array([p["positions"] for p in planned["points"]])
+    t = np.array([p["time_from_start"] for p in planned["points"]])
+    stop = planned["segments"][0]["end_time"]
+    q_stop, q_end = q[t == stop][0], q[-1]
+    center = UR5.fk(q_stop + 0.6 * (q_end - q_stop))[:3, 3]  # the tool's place 60 % along
+    body = {**free, "environment": {"obstacles": [_ball(center, 0.03)]}}
+    assert _problem(client.post(URL, json=body), "collision")["segment"] == 1
+    r = client.post(URL, json={**body, "allow_partial": True})
+    assert r.status_code == 200, r.text
+    out = r.json()
+    got = check_ros_trajectory(out, rest_to_rest=True)
+    diag = out["diagnostics"]
+    assert diag["failure"]["code"] == "collision" and diag["failure"]["segment"] == 1
+    assert diag["warnings"][0].startswith("planned ")
+    assert not any("ends moving" in w for w in diag["warnings"])
+    assert np.array_equal(got.velocities[-1], np.zeros(6))
+    assert np.array_equal(got.accelerations[-1], np.zeros(6))
+    assert np.all(np.array(diag["peak_velocity"]) <= UR5.velocity_limits * (1 + 1e-9))
+    assert np.all(np.array(diag["peak_acceleration"]) <= UR5.acceleration_limits * (1 + 1e-9))
+    n = int(np.flatnonzero(t == stop)[0]) + 1
+    np.testing.assert_array_equal(got.positions[:n], q[:n])
+    assert out["segments"][1]["end_time"] == got.times[-1]
+    rest = got.positions[n - 1 :]
+    if second == "lin":  # on the line within the tolerance, forward, short of the goal
+        p = np.array([UR5.fk(x)[:3, 3] for x in rest]) - UR5.fk(q_stop)[:3, 3]
+        assert np.abs(p[:, [0, 2]]).max() < 1e-3
+        assert np.all(np.diff(p[:, 1]) >= -1e-9) and 0.0 < p[-1, 1] < 0.6 * 0.3
+        share = p[-1, 1] / 0.3
+    else:  # on the joint segment
+        d = q_end - q_stop
+        u = (rest - q_stop) @ d / (d @ d)
+        assert np.abs(rest - q_stop - u[:, None] * d).max() < 1e-9
+        assert np.all(np.diff(u) >= -1e-12) and 0.0 < u[-1] < 0.6
+        share = u[-1]
+    assert diag["fraction"] == pytest.approx((1 + share) / 2, abs=1e-3)
+    assert diag["min_clearance"] >= 0.0
+    assert diag["clearance_profile"]["time_from_start"][-1] == got.times[-1]
