@@ -149,6 +149,7 @@ def _stop_at(
 ) -> ProgramResult | None:
     """The program up to time ``t`` [s], at rest there (see the module docstring), with
     ``failure`` as its partial plan's; None when nothing before ``t`` moves."""
+    task.deadline.check("bringing the program to rest")
     starts = np.array([o for o, _, _ in timings])
     k = int(np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(timings) - 1))
     offset, timing, chunk = timings[k]

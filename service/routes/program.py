@@ -117,13 +117,16 @@ def to_rest(planned: ProgramResult, cut: ProgramResult, robot: Robot, body: Prog
     """A program cut short by a collision (``allow_partial``) brought to rest: ``planned`` up to
     the last clear returned point of ``cut``, re-timed to stop there along its own path
     (``ProgramResult.stop_at``) and checked again; earlier by ``STOP_SHRINK`` of the time when
-    that one is not clear (``STOP_TRIES`` in all). None clear: ``cut``, ending in motion (it
-    says so in a warning)."""
+    that one is not clear (``STOP_TRIES`` in all). None clear (or the time budget spent):
+    ``cut``, ending in motion (it says so in a warning)."""
     if planned.stop_at is None or cut.failure is None:
         return cut
     t = float(cut.trajectory.times[-1])
     for _ in range(environment.STOP_TRIES):
-        stopped = planned.stop_at(t, cut.failure)
+        try:
+            stopped = planned.stop_at(t, cut.failure)
+        except PlanningError:  # the time budget, an S-curve Ruckig refuses: keep the cut
+            break
         if stopped is None:
             break
         try:

@@ -15,7 +15,7 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
-from core.errors import Collision
+from core.errors import Collision, TimeBudgetExceeded
 from core.geometry.so3 import pose_to_matrix
 from core.program.plan import plan_program
 from core.program.segments import ProgramTask, Segment
@@ -414,7 +414,8 @@ def test_a_program_cut_by_a_collision_comes_to_rest_on_its_path(client, second):
 
 def test_to_rest_tries_earlier_stops_and_else_keeps_the_moving_cut(monkeypatch):
     """``to_rest``: a stop whose re-check finds a contact is tried again 10 % earlier (at most
-    ``STOP_TRIES`` stops); with no clear stop the moving cut (and its warning) is the answer."""
+    ``STOP_TRIES`` stops); with no clear stop, or the time budget spent, the moving cut (and its
+    warning) is the answer."""
     goal = T0.copy()
     goal[:3, 3] += [0.1, 0.0, 0.0]
     planned = plan_program(ProgramTask(UR5, np.array(HOME), (Segment("lin", goal_pose=goal),)))
@@ -454,3 +455,8 @@ def test_to_rest_tries_earlier_stops_and_else_keeps_the_moving_cut(monkeypatch):
     calls["n"] = -100  # never clear: the moving cut
     assert to_rest(probe, cut, UR5, None) is cut
     assert len(asked) == 3 + environment.STOP_TRIES
+
+    def expired(t: float, failure: Collision):
+        raise TimeBudgetExceeded("bringing the program to rest exceeded the budget")
+
+    assert to_rest(dataclasses.replace(planned, stop_at=expired), cut, UR5, None) is cut
