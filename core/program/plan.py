@@ -4,221 +4,56 @@ The joint path is cut into chunks at every stop (an unblended segment goal); ble
 inside a chunk. Each chunk is timed as one rest-to-rest motion (``core.program.timing``; an
 S-curve when one of its LIN/CIRC segments asks for ``speed_profile="s_curve"``), so the program
 stops exactly at unblended goals and nowhere else. A chunk that is a lone PTP with a ``profile``
-is timed by that joint profile instead (``core.joint.point_to_point.plan_joint``: trapezoidal,
-quintic, or jerk_limited on Ruckig), under the joint limits times the segment's scales. The returned points are a regular grid
+is timed by that joint profile instead, synchronously (``core.program.ptp``: every joint follows
+one law s(t), so the joint path stays the straight segment; trapezoidal, quintic, or jerk_limited
+on Ruckig), under the joint limits times the segment's scales. The returned points are a regular grid
 (``sample_period`` or ``samples``) plus every segment boundary and blend window boundary, so a
 controller reaches each goal exactly. LIN/CIRC deviation from their line/arc is measured outside
 the blend windows along the returned trajectory (``core.program.report``). The trajectory's
 peaks (``peak_jerk`` included) are those of the analytic q(t) of every chunk.
+
+``ProgramResult.stop_at(t, failure)`` is the same program cut at time t and brought to rest there:
+the chunks before unchanged, the one holding t re-timed rest to rest along its own joint path up
+to the position at t (``allow_partial`` when a collision check cuts the answer).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import functools
+from dataclasses import replace
 
 import numpy as np
 
 from core.errors import InputError, PlanningError, TooLarge
-from core.joint.motion import PointToPoint
-from core.joint.point_to_point import plan_joint
-from core.limits import JointLimits
 from core.program.build import Geometry, build
-from core.program.chunk import ChunkInput, ChunkTiming
+from core.program.chunk import ChunkTiming
+from core.program.pieces import Piece, ProfileTiming, chunks_of, profile_kind, time_pieces
 from core.program.report import ProgramResult, SegmentResult, report
 from core.program.s_curve import ShapedSCurve
-from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
-from core.program.timing import time_chunk
-from core.program.validate import layout
+from core.program.segments import ProgramTask
+from core.program.validate import Layout, layout
 from core.timing.s_curve import SCurveTiming
-from core.trajectory import MAX_POINTS, Peaks, Profile, Trajectory, sample_times
+from core.trajectory import MAX_POINTS, Peaks, Trajectory, sample_times
 
 _MIN_GAP = 1e-6
 """Regular sample times closer than this [s] to a boundary time are dropped (the boundary stays)."""
 
-
-@dataclass
-class _Piece:
-    owner: int
-    blend: bool
-    q: np.ndarray
-    T: np.ndarray
-    scales: tuple[float, float]
-    tool_speed: tuple[float, float]
-    tool_acc: tuple[float, float]
-    times: tuple[float, float] = (0.0, 0.0)
-
-
-def _pieces(task: ProgramTask, geo: Geometry) -> list[list[_Piece]]:
-    """The geometry as chunks (lists of pieces between stops)."""
-    robot = task.robot
-    chunks: list[list[_Piece]] = [[]]
-    for sp in geo.segments:
-        seg = sp.seg
-        s, q = sp.piece()
-        # a knot spline (bounded_deviation) leaves the path within its tolerance: the tool's own
-        # poses, so its speed limits hold for the tool itself
-        T = sp.poses(robot, s) if sp.knot_count is None else robot.fk_many(q)
-        cart = seg.cartesian
-        acc = (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if cart else (np.inf, np.inf)
-        piece = _Piece(
-            sp.index,
-            False,
-            q,
-            T,
-            (seg.velocity_scale, seg.acceleration_scale),
-            seg.tool_speeds(),
-            acc,
-        )
-        chunks[-1].append(piece)
-        blend = geo.blends.get(sp.index)
-        if blend is None:
-            chunks.append([])
-            continue
-        nxt = next(p for p in geo.segments if p.index > sp.index).seg
-        chunks[-1].append(
-            _Piece(
-                sp.index,
-                True,
-                blend.q,
-                blend.T,
-                (
-                    min(seg.velocity_scale, nxt.velocity_scale),
-                    min(seg.acceleration_scale, nxt.acceleration_scale),
-                ),
-                tuple(np.minimum(seg.tool_speeds(), nxt.tool_speeds())),
-                (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if blend.cartesian else acc,
-            )
-        )
-    return [c for c in chunks if c]
-
-
-def _time(task: ProgramTask, chunk: list[_Piece]) -> ChunkTiming | None:
-    """Time one chunk; record each piece's (start, end) time in the chunk. None if it is still."""
-    robot = task.robot
-    qs, Ts, starts = [], [], []
-    rows: dict[str, list[np.ndarray]] = {"v": [], "a": [], "ts": [], "ta": []}
-    for k, p in enumerate(chunk):
-        first = 0 if k == 0 else 1  # pieces share their junction sample
-        starts.append(sum(len(x) for x in qs) - (0 if k == 0 else 1))
-        n = len(p.q) - first
-        qs.append(p.q[first:])
-        Ts.append(p.T[first:])
-        rows["v"].append(np.tile(robot.velocity_limits * p.scales[0], (n, 1)))
-        rows["a"].append(np.tile(robot.acceleration_limits * p.scales[1], (n, 1)))
-        rows["ts"].append(np.tile(p.tool_speed, (n, 1)))
-        rows["ta"].append(np.tile(p.tool_acc, (n, 1)))
-    q = np.concatenate(qs)
-    ends = [*starts[1:], len(q) - 1]
-    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
-    if step.sum() < 1e-12:
-        return None
-    keep = np.concatenate([[True], step > 1e-13])
-    index = np.cumsum(keep) - 1  # old sample -> kept sample
-    asking = [
-        task.segments[p.owner]
-        for p in chunk
-        if not p.blend and task.segments[p.owner].speed_profile == "s_curve"
-    ]
-    jerk = None
-    if asking:  # one S-curve for the stretch, under the tightest jerk limits asked
-        jerk = tuple(np.min([seg.tool_jerks() for seg in asking], axis=0).tolist())
-    c = ChunkInput(
-        q[keep],
-        np.concatenate(Ts)[keep],
-        np.concatenate(rows["v"])[keep],
-        np.concatenate(rows["a"])[keep],
-        np.concatenate(rows["ts"])[keep],
-        np.concatenate(rows["ta"])[keep],
-        jerk,
-    )
-    timing = time_chunk(c)
-    for p, a, b in zip(chunk, starts, ends, strict=True):
-        p.times = (float(timing.knot_times[index[a]]), float(timing.knot_times[index[b]]))
-    return timing
-
-
-@dataclass(frozen=True)
-class ProfileTiming:
-    """A chunk that is one unblended PTP, timed by its joint profile (``plan_joint``): rest to
-    rest, sampled exactly (``sample`` as ``ChunkTiming.sample``).
-
-    Attributes:
-        profile: The joint profile (``core.joint.profiles``), t in [0, duration] [s].
-        duration: Its length [s].
-        stretch: 1.0 (the profile is timed within the limits by construction).
-    """
-
-    profile: Profile
-    duration: float
-    stretch: float = 1.0
-
-    def peaks(self) -> Peaks:
-        """The profile's exact peaks."""
-        return self.profile.peaks()
-
-    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions, velocities, accelerations (N, dof) at times ``t`` (N,) [s]."""
-        return self.profile.sample(np.clip(np.asarray(t, dtype=float), 0.0, self.duration))
-
-
-def _profiled(task: ProgramTask, chunk: list[_Piece]) -> str | None:
-    """The joint profile a chunk is timed with: a lone PTP piece (rest to rest) that asks for one."""
-    if len(chunk) != 1 or chunk[0].blend:
-        return None
-    seg = task.segments[chunk[0].owner]
-    return seg.profile if seg.type == "ptp" else None
-
-
-def _profile_time(task: ProgramTask, chunk: list[_Piece], kind: str) -> ProfileTiming | None:
-    """Time a lone PTP with joint profile ``kind`` under its scaled limits; None if it is still."""
-    robot, p = task.robot, chunk[0]
-    seg = task.segments[p.owner]
-    q0, q1 = p.q[0], p.q[-1]
-    if np.abs(q1 - q0).max() < 1e-12:
-        return None
-    limits = JointLimits(
-        velocity=np.asarray(robot.velocity_limits, dtype=float) * seg.velocity_scale,
-        acceleration=np.asarray(robot.acceleration_limits, dtype=float) * seg.acceleration_scale,
-        position=np.asarray(robot.position_limits, dtype=float),
-        jerk=robot.jerk_limits,
-    )
-    try:
-        plan = plan_joint(
-            kind,
-            PointToPoint.create(q0, q1),
-            limits,
-            samples=2,
-            joint_names=tuple(robot.joint_names),
-            deadline=task.deadline,
-        )
-    except PlanningError as err:
-        err.extra["segment"] = p.owner
-        if isinstance(err, InputError):
-            err.field = ("segments", p.owner, "profile")
-        raise
-    duration = float(plan.profile.duration)
-    p.times = (0.0, duration)
-    return ProfileTiming(plan.profile, duration)
+Timed = tuple[float, ChunkTiming | ProfileTiming, list[Piece]]
+"""A timed chunk: its start [s] in the program, its timing, its pieces (times in the program)."""
 
 
 def plan_program(task: ProgramTask) -> ProgramResult:
     """Plan ``task`` (see the module docstring)."""
     lay = layout(task)
     geo = build(task, lay)
-    robot = task.robot
-    chunks = _pieces(task, geo)
-    timings: list[tuple[float, ChunkTiming | ProfileTiming, list[_Piece]]] = []
+    timings: list[Timed] = []
     offset = 0.0
     profiled: set[int] = set()
     timed_by: dict[int, str] = {}
-    for chunk in chunks:
+    for chunk in chunks_of(task, geo):
         task.deadline.check("timing the program")
-        kind = _profiled(task, chunk)
-        try:
-            timing = _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
-        except PlanningError as err:  # e.g. an S-curve over Ruckig's duration cap
-            err.extra.setdefault("segment", chunk[0].owner)
-            raise
+        timing = time_pieces(task, chunk)
+        kind = profile_kind(task, chunk)
         if kind is not None:
             profiled.add(chunk[0].owner)
         elif timing is not None:
@@ -230,13 +65,33 @@ def plan_program(task: ProgramTask) -> ProgramResult:
                 timed_by[p.owner] = kind or "time_optimal"
         if timing is None:
             continue
-        for p in chunk:
-            p.times = (p.times[0] + offset, p.times[1] + offset)
-        timings.append((offset, timing, chunk))
+        timings.append(_placed(offset, timing, chunk))
         offset += timing.duration
     if not timings:
         raise InputError("the program does not move the arm", field=("segments",))
-    duration = offset
+    result = _assemble(task, lay, geo, timings, profiled, timed_by)
+    stop = functools.partial(_stop_at, task, lay, geo, timings, profiled, timed_by)
+    return replace(result, stop_at=stop)
+
+
+def _placed(offset: float, timing: ChunkTiming | ProfileTiming, chunk: list[Piece]) -> Timed:
+    """The chunk placed at ``offset`` [s]: its pieces' times moved into the program's."""
+    for p in chunk:
+        p.times = (p.times[0] + offset, p.times[1] + offset)
+    return offset, timing, chunk
+
+
+def _assemble(
+    task: ProgramTask,
+    lay: Layout,
+    geo: Geometry,
+    timings: list[Timed],
+    profiled: set[int],
+    timed_by: dict[int, str],
+) -> ProgramResult:
+    """Sample the timed chunks and report them (``core.program.report``)."""
+    robot = task.robot
+    duration = timings[-1][0] + timings[-1][1].duration
     regular = sample_times(duration, task.sample_period, task.samples, MAX_POINTS)
     marks = np.unique([t for _, _, ch in timings for p in ch for t in p.times])
     near = np.min(np.abs(regular[:, None] - marks[None, :]), axis=1) < _MIN_GAP
@@ -282,9 +137,90 @@ def plan_program(task: ProgramTask) -> ProgramResult:
     return result
 
 
-def _sample(
-    timings: list[tuple[float, ChunkTiming | ProfileTiming, list[_Piece]]], times: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _stop_at(
+    task: ProgramTask,
+    lay: Layout,
+    geo: Geometry,
+    timings: list[Timed],
+    profiled: set[int],
+    timed_by: dict[int, str],
+    t: float,
+    failure: PlanningError,
+) -> ProgramResult | None:
+    """The program up to time ``t`` [s], at rest there (see the module docstring), with
+    ``failure`` as its partial plan's; None when nothing before ``t`` moves."""
+    task.deadline.check("bringing the program to rest")
+    starts = np.array([o for o, _, _ in timings])
+    k = int(np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(timings) - 1))
+    offset, timing, chunk = timings[k]
+    tau = t - offset
+    kept = list(timings[:k])
+    share = 1.0  # of the path parameter of the last kept piece's segment
+    if tau >= timing.duration - _MIN_GAP:  # the whole chunk: it ends at rest
+        kept.append(timings[k])
+    elif tau > _MIN_GAP:
+        cut, share = _cut(task, chunk, timing, tau)
+        retimed = time_pieces(task, cut) if cut else None
+        if retimed is None:
+            share = 1.0
+        else:
+            kept.append(_placed(offset, retimed, cut))
+    if not kept:
+        return None
+    owner = kept[-1][2][-1].owner
+    short = replace(task, segments=task.segments[: owner + 1])
+    few = replace(geo, segments=tuple(sp for sp in geo.segments if sp.index <= owner), failure=None)
+    result = _assemble(short, lay, few, kept, profiled, timed_by)
+    fraction = (owner + share) / len(task.segments)
+    return replace(
+        result,
+        fraction=fraction,
+        failure=failure,
+        warnings=(f"planned {fraction:.1%} of the program: {failure.detail}", *result.warnings),
+    )
+
+
+def _cut(
+    task: ProgramTask, chunk: list[Piece], timing: ChunkTiming | ProfileTiming, tau: float
+) -> tuple[list[Piece], float]:
+    """The chunk's pieces up to its time ``tau`` [s], the last ending at the position there (new
+    pieces, not yet timed), and the share of its segment's path parameter reached."""
+    robot = task.robot
+    offset = chunk[0].times[0]
+    q_cut = timing.sample(np.array([tau]))[0][0]
+    out: list[Piece] = []
+    for p in chunk:
+        fresh = replace(p, times=(0.0, 0.0), knots=None)
+        if p.times[1] - offset <= tau:
+            out.append(fresh)
+            continue
+        if p.knots is None:  # a profiled PTP: its straight segment
+            keep = np.array([True] + [False] * (len(p.q) - 1))
+        else:
+            keep = p.knots < tau - 1e-12
+        if keep.any():
+            share = 1.0
+            if p.s is not None:
+                if p.knots is None:
+                    d = p.q[-1] - p.q[0]
+                    u = float(np.clip((q_cut - p.q[0]) @ d / (d @ d), 0.0, 1.0))
+                    share = float(p.s[0] + u * (p.s[-1] - p.s[0]))
+                else:
+                    share = float(np.interp(tau, p.knots, p.s))
+            out.append(
+                replace(
+                    fresh,
+                    q=np.concatenate([p.q[keep], q_cut[None]]),
+                    T=np.concatenate([p.T[keep], robot.fk(q_cut)[None]]),
+                    s=None if p.s is None else np.append(p.s[keep], share),
+                )
+            )
+            return out, share
+        break
+    return out, 1.0
+
+
+def _sample(timings: list[Timed], times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions, velocities, accelerations at ``times``, exact (and at rest) at chunk ends."""
     starts = np.array([o for o, _, _ in timings])
     which = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(timings) - 1)

@@ -52,11 +52,15 @@ class ProgramResult:
 
     Attributes:
         trajectory: The returned points.
-        segments: One entry per requested segment (skipped ones included), in order.
+        segments: One entry per requested segment, in order: skipped (zero-length) ones too, with
+            ``start_time == end_time`` (a partial plan: up to the failing segment).
         warnings: Skipped segments, ignored radii, partial plans, deviations over tolerance.
         fraction: Share of the segments planned (1.0 unless partial).
         failure: What stopped a partial plan, else None.
         diagnostics: Program-wide facts (max deviations, stretch, chunk count).
+        stop_at: ``stop_at(t, failure)``: the program cut at time ``t`` [s] and brought to rest
+            there along its own path (``core.program.plan``), a partial plan failing with
+            ``failure``; None when nothing before ``t`` moves. None: not offered.
     """
 
     trajectory: Trajectory
@@ -65,6 +69,9 @@ class ProgramResult:
     fraction: float
     failure: PlanningError | None
     diagnostics: dict[str, Any]
+    stop_at: Callable[[float, PlanningError], ProgramResult | None] | None = field(
+        default=None, repr=False, compare=False
+    )
 
 
 def _dense(times: np.ndarray, t0: float, t1: float) -> np.ndarray:
@@ -92,15 +99,15 @@ def report(
     worst_p, worst_o, sigma = 0.0, 0.0, np.inf
     t_prev = 0.0
     for i, seg in enumerate(task.segments):
-        if i > last_planned:
+        if geo.failure is not None and i > last_planned:  # a partial plan: not reached
             break
-        if i not in planned:
+        if i not in planned or (i, False) not in spans:
+            # zero length (``layout``'s), or planned yet no joint moves (nothing was timed)
+            if i in planned and not any(w.startswith(f"segment {i} has zero") for w in warnings):
+                warnings.append(f"segment {i} has zero length (no joint moves): skipped")
             results.append(SegmentResult(i, seg.type, t_prev, t_prev, None, {"skipped": True}))
             continue
         sp = planned[i]
-        if (i, False) not in spans:  # planned, yet no joint moves (nothing was timed): zero length
-            results.append(SegmentResult(i, seg.type, t_prev, t_prev, None, {"skipped": True}))
-            continue
         t0, t1 = spans[(i, False)]
         blend = spans.get((i, True))
         diag: dict[str, Any] = {

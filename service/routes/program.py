@@ -6,6 +6,7 @@ Thin route: schema -> ``ProgramTask`` -> ``core.program.plan.plan_program`` -> r
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import Any
@@ -15,11 +16,12 @@ from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.errors import InputError, JointLimit, PlanningError, TooLarge
+from core.errors import Collision, InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
+from robots.model import Robot
 from service import deps, environment
 from service.convert.cartesian import failure_body
 from service.encoding import (
@@ -111,6 +113,32 @@ def _finite(value: Any) -> Any:
     return value
 
 
+def to_rest(planned: ProgramResult, cut: ProgramResult, robot: Robot, body: ProgramRequest) -> Any:
+    """A program cut short by a collision (``allow_partial``) brought to rest: ``planned`` up to
+    the last clear returned point of ``cut``, re-timed to stop there along its own path
+    (``ProgramResult.stop_at``) and checked again; earlier by ``STOP_SHRINK`` of the time when
+    that one is not clear (``STOP_TRIES`` in all). None clear (or the time budget spent):
+    ``cut``, ending in motion (it says so in a warning)."""
+    if planned.stop_at is None or cut.failure is None:
+        return cut
+    t = float(cut.trajectory.times[-1])
+    for _ in range(environment.STOP_TRIES):
+        try:
+            stopped = planned.stop_at(t, cut.failure)
+        except PlanningError:  # the time budget, an S-curve Ruckig refuses: keep the cut
+            break
+        if stopped is None:
+            break
+        try:
+            checked = environment.guard_program(stopped, robot, body)
+        except Collision:
+            checked = None
+        if checked is not None and checked.failure is stopped.failure:
+            return dataclasses.replace(checked, stop_at=None)
+        t *= environment.STOP_SHRINK
+    return cut
+
+
 def result_body(
     result: ProgramResult, compute_time_ms: float, time_format: str = "float"
 ) -> dict[str, Any]:
@@ -163,15 +191,15 @@ def result_body(
         "acceleration limits (times each segment's scales) hold. Without a blend the robot stops "
         "at the goal. Every segment goal and blend window boundary is a returned point. A failing "
         "segment is 422 with `code`, `segment` and `s`; with `allow_partial` 200 with the program "
-        "up to it.\n\n"
+        "up to it (a collision: brought to rest before the contact along its path).\n\n"
         "PTP to a pose: the IK solution with `goal.configuration` (a label of /v1/robots/{name}/ik, "
         "e.g. `left-up-noflip`) nearest the current joints, else the nearest of all; a label the "
         "pose has no solution with is 422 `unreachable` naming the labels it has. LIN and CIRC "
         "keep the configuration label of their start (a change on the way is `branch_flip` at "
         "its `s`).\n\n"
         "PTP `profile` (`trapezoidal`, `quintic`, `jerk_limited`) times a PTP between stops (no "
-        "blend at either end) rest to rest, as on /v1/trajectories/joint, under the joint limits "
-        "times its scales (`jerk_limited`: the robot's jerk limits; none published: 422 "
+        "blend at either end) rest to rest, synchronously (every joint on one normalized profile: "
+        "the straight joint segment), the fastest within the joint limits times its scales (`jerk_limited`: the robot's jerk limits; none published: 422 "
         "`validation`). Inside a blend a profile has no meaning: the blended stretch is timed as "
         "one motion (time-optimal along the path, q'' continuous), and the profile is ignored "
         "with a warning. Without `profile` a PTP follows that common timing too.\n\n"
@@ -197,8 +225,10 @@ def program_trajectory(
             f"samples exceeds the limit of {settings.max_points} points", field=("samples",)
         )
     started = time.perf_counter()
-    result = plan_program(task)
-    result = environment.guard_program(result, robot, body)
+    planned = plan_program(task)
+    result = environment.guard_program(planned, robot, body)
+    if result.failure is not None and result.failure is not planned.failure:
+        result = to_rest(planned, result, robot, body)
     elapsed_ms = (time.perf_counter() - started) * 1e3
     check_finite(result.trajectory)
     if len(result.trajectory.times) > settings.max_points:

@@ -116,8 +116,10 @@ class PtpSegment(_Common):
     profile: Literal["trapezoidal", "quintic", "jerk_limited"] | None = Field(
         default=None,
         description="Joint profile of a PTP between stops (no blend into or out of it), rest to "
-        "rest under the joint limits times velocity_scale/acceleration_scale, as on "
-        "/v1/trajectories/joint: `trapezoidal` (acceleration steps at the ramp ends), `quintic`, "
+        "rest, synchronous: every joint follows one normalized profile s(t), so the joint path "
+        "is the straight segment; s(t) the fastest of its kind under the joint limits times "
+        "velocity_scale/acceleration_scale: `trapezoidal` (acceleration steps at the ramp ends), "
+        "`quintic`, "
         "`jerk_limited` (Ruckig, the robot's jerk limits, e.g. Panda 7500 rad/s^3; a robot "
         "without published jerk limits is 422 `validation` here). Absent: the program's common "
         "timing (time-optimal along the path, q'' continuous). Inside a blend a profile has no "

@@ -6,6 +6,7 @@ segment ends are compared with the single-move endpoint (/v1/trajectories/cartes
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -14,9 +15,15 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
+from core.errors import Collision, TimeBudgetExceeded
 from core.geometry.so3 import pose_to_matrix
+from core.program.plan import plan_program
+from core.program.segments import ProgramTask, Segment
+from core.trajectory import Trajectory
 from robots import registry
+from service import environment
 from service.app import create_app
+from service.routes.program import to_rest
 from service.schemas.program import ProgramResponse
 from service.settings import Settings
 from tests.ros_rules import check_ros_trajectory
@@ -326,3 +333,130 @@ def test_s_curve_lin_through_the_api(client):
     body["segments"][0]["max_linear_jerk"] = -1.0
     problem = _problem(client.post(URL, json=body), "validation")
     assert problem["errors"][0]["loc"][-1] == "max_linear_jerk"
+
+
+def test_zero_length_segments_at_the_end_are_in_the_answer(client):
+    """Every requested segment is in ``segments`` (trailing zero-length ones were left out): at the
+    end of the answer, ``start_time == end_time``, skipped, with a warning."""
+    body = {"robot": "ur5", "start": {"positions": HOME},
+            "segments": [{"type": "lin", "goal": {"pose": pose(0.1, 0, 0)}},
+                         {"type": "lin", "goal": {"pose": pose(0.1, 0, 0)}},
+                         {"type": "ptp", "goal": {"pose": pose(0.1, 0, 0)}}]}  # fmt: skip
+    r = client.post(URL, json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    end = out["diagnostics"]["duration"]
+    assert [s["index"] for s in out["segments"]] == [0, 1, 2]
+    for seg in out["segments"][1:]:
+        assert seg["start_time"] == seg["end_time"] == end and seg["diagnostics"]["skipped"]
+        assert any(f"segment {seg['index']} has zero length" in w
+                   for w in out["diagnostics"]["warnings"])  # fmt: skip
+    ProgramResponse.model_validate(out)
+
+
+def _ball(center: np.ndarray, radius: float) -> dict:
+    return {"name": "ball", "shape": {"type": "sphere", "radius": radius},
+            "pose": {"position": center.tolist(), "orientation": [0.0, 0.0, 0.0, 1.0]}}  # fmt: skip
+
+
+@pytest.mark.parametrize("second", ["lin", "ptp"])
+def test_a_program_cut_by_a_collision_comes_to_rest_on_its_path(client, second):
+    """``allow_partial`` with a ball across the second move (a LIN, or a trapezoidal PTP): was cut
+    at the last clear returned point still moving, with a warning. Now the stretch holding the
+    contact is re-timed to rest at that point along the same path: zero velocity and acceleration
+    at the end, the limits held, the first stretch exactly as planned without the ball, the rest
+    on the second move's path (line; joint segment), clear of the ball, ``fraction`` its share."""
+    lift = {"type": "lin", "goal": {"pose": pose(0, 0, 0.1)}}
+    free = {"robot": "ur5", "start": {"positions": HOME}, "sample_period": 0.004,
+            "segments": [lift, {"type": "lin", "goal": {"pose": pose(0, 0.3, 0.1)}}]}  # fmt: skip
+    if second == "ptp":
+        free["segments"][1] = {"type": "ptp", "goal": {"pose": pose(0, 0.3, 0.1)},
+                               "profile": "trapezoidal"}  # fmt: skip
+    planned = client.post(URL, json=free).json()
+    q = np.array([p["positions"] for p in planned["points"]])
+    t = np.array([p["time_from_start"] for p in planned["points"]])
+    stop = planned["segments"][0]["end_time"]
+    q_stop, q_end = q[t == stop][0], q[-1]
+    center = UR5.fk(q_stop + 0.6 * (q_end - q_stop))[:3, 3]  # the tool's place 60 % along
+    body = {**free, "environment": {"obstacles": [_ball(center, 0.03)]}}
+    assert _problem(client.post(URL, json=body), "collision")["segment"] == 1
+    r = client.post(URL, json={**body, "allow_partial": True})
+    assert r.status_code == 200, r.text
+    out = r.json()
+    got = check_ros_trajectory(out, rest_to_rest=True)
+    diag = out["diagnostics"]
+    assert diag["failure"]["code"] == "collision" and diag["failure"]["segment"] == 1
+    assert diag["warnings"][0].startswith("planned ")
+    assert not any("ends moving" in w for w in diag["warnings"])
+    assert np.array_equal(got.velocities[-1], np.zeros(6))
+    assert np.array_equal(got.accelerations[-1], np.zeros(6))
+    assert np.all(np.array(diag["peak_velocity"]) <= UR5.velocity_limits * (1 + 1e-9))
+    assert np.all(np.array(diag["peak_acceleration"]) <= UR5.acceleration_limits * (1 + 1e-9))
+    n = int(np.flatnonzero(t == stop)[0]) + 1
+    np.testing.assert_array_equal(got.positions[:n], q[:n])
+    assert out["segments"][1]["end_time"] == got.times[-1]
+    rest = got.positions[n - 1 :]
+    if second == "lin":  # on the line within the tolerance, forward, short of the goal
+        p = np.array([UR5.fk(x)[:3, 3] for x in rest]) - UR5.fk(q_stop)[:3, 3]
+        assert np.abs(p[:, [0, 2]]).max() < 1e-3
+        assert np.all(np.diff(p[:, 1]) >= -1e-9) and 0.0 < p[-1, 1] < 0.6 * 0.3
+        share = p[-1, 1] / 0.3
+    else:  # on the joint segment
+        d = q_end - q_stop
+        u = (rest - q_stop) @ d / (d @ d)
+        assert np.abs(rest - q_stop - u[:, None] * d).max() < 1e-9
+        assert np.all(np.diff(u) >= -1e-12) and 0.0 < u[-1] < 0.6
+        share = u[-1]
+    assert diag["fraction"] == pytest.approx((1 + share) / 2, abs=1e-3)
+    assert diag["min_clearance"] >= 0.0
+    assert diag["clearance_profile"]["time_from_start"][-1] == got.times[-1]
+
+
+def test_to_rest_tries_earlier_stops_and_else_keeps_the_moving_cut(monkeypatch):
+    """``to_rest``: a stop whose re-check finds a contact is tried again 10 % earlier (at most
+    ``STOP_TRIES`` stops); with no clear stop, or the time budget spent, the moving cut (and its
+    warning) is the answer."""
+    goal = T0.copy()
+    goal[:3, 3] += [0.1, 0.0, 0.0]
+    planned = plan_program(ProgramTask(UR5, np.array(HOME), (Segment("lin", goal_pose=goal),)))
+    tr = planned.trajectory
+    k = len(tr.times) // 2
+    moving = Trajectory(
+        tr.times[:k], tr.positions[:k], tr.velocities[:k], tr.accelerations[:k], tr.joint_names
+    )
+    contact = Collision("a contact ahead", extra={"time_from_start": float(tr.times[k])})
+    cut = dataclasses.replace(planned, failure=contact, trajectory=moving)
+    asked: list[float] = []
+
+    def stop_at(t: float, failure: Collision):
+        asked.append(t)
+        return planned.stop_at(t, failure)
+
+    calls = {"n": 0}
+
+    def guard(result, robot, body):  # a contact on the first two re-checks
+        calls["n"] += 1
+        if calls["n"] <= 2:
+            return dataclasses.replace(result, failure=Collision("again"))
+        return result
+
+    monkeypatch.setattr(environment, "guard_program", guard)
+    probe = dataclasses.replace(planned, stop_at=stop_at)
+    out = to_rest(probe, cut, UR5, None)
+    end = float(moving.times[-1])
+    assert asked == pytest.approx([end, 0.9 * end, 0.81 * end], rel=1e-12)
+    assert out.failure is contact and out.stop_at is None
+    # stopped where the plan was at 0.81 of the cut's time: short of where the cut ended
+    done = [
+        UR5.fk(q)[0, 3] - T0[0, 3] for q in (out.trajectory.positions[-1], moving.positions[-1])
+    ]
+    assert 0.0 < done[0] < done[1]
+    assert np.array_equal(out.trajectory.velocities[-1], np.zeros(6))
+    calls["n"] = -100  # never clear: the moving cut
+    assert to_rest(probe, cut, UR5, None) is cut
+    assert len(asked) == 3 + environment.STOP_TRIES
+
+    def expired(t: float, failure: Collision):
+        raise TimeBudgetExceeded("bringing the program to rest exceeded the budget")
+
+    assert to_rest(dataclasses.replace(planned, stop_at=expired), cut, UR5, None) is cut

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from core.errors import BranchFlip, InputError, JointLimit, Singularity, Unreachable
+from core.errors import BranchFlip, Collision, InputError, JointLimit, Singularity, Unreachable
 from core.path.arc import Arc
 from core.program.build import _keep_label, build
 from core.program.plan import plan_program
@@ -337,3 +337,85 @@ def test_peak_jerk_is_the_analytic_jerk_checked_by_finite_differences():
     assert np.all(fd <= peak * (1 + 1e-3) + 1e-9)
     assert np.all(fd >= 0.8 * peak)
     assert np.all(tr.peak_velocity >= np.abs(tr.velocities).max(axis=0))
+
+
+def test_zero_length_segments_at_the_end_are_listed_too():
+    """Was: left out of ``segments`` (only skipped ones between moves were listed). Every requested
+    segment is listed: a zero-length one at the end starts and ends with the answer, with a
+    warning; so is a segment that moves no joint although ``layout`` could not tell (a PTP to the
+    joints a LIN ended at)."""
+    segs = (
+        Segment("lin", goal_pose=at(0.1, 0, 0)),
+        Segment("lin", goal_pose=at(0.1, 0, 0)),
+        Segment("ptp", goal_pose=at(0.1, 0, 0)),
+    )
+    res = plan_program(ProgramTask(UR5, HOME, segs))
+    end = float(res.trajectory.times[-1])
+    assert [s.index for s in res.segments] == [0, 1, 2]
+    assert res.segments[0].end_time == end
+    for s in res.segments[1:]:
+        assert s.start_time == s.end_time == end and s.blend_out is None
+        assert s.diagnostics["skipped"]
+        assert any(w.startswith(f"segment {s.index} has zero length") for w in res.warnings)
+    q_end = res.trajectory.positions[-1]
+    still = (Segment("lin", goal_pose=at(0.1, 0, 0)), Segment("ptp", goal_positions=q_end))
+    res = plan_program(ProgramTask(UR5, HOME, still))
+    last = res.segments[-1]
+    assert [s.index for s in res.segments] == [0, 1]
+    assert last.start_time == last.end_time == res.trajectory.times[-1]
+    assert last.diagnostics["skipped"]
+    assert any(w.startswith("segment 1 has zero length") for w in res.warnings)
+
+
+@pytest.mark.parametrize("share", [0.2, 0.5, 0.85])
+def test_stop_at_brings_the_program_to_rest_where_it_was_on_its_path(planned, share):
+    """``stop_at(t)`` (a collision cut at t with ``allow_partial``): the blended program (one
+    chunk) re-timed to stop at the point it reached at t, within the limits, every LIN/CIRC still
+    on its path outside the blends, the segments listed up to the one it stops in."""
+    _, res = planned
+    tr = res.trajectory
+    k = int(share * (len(tr.times) - 1))
+    failure = Collision("a contact ahead")
+    cut = res.stop_at(float(tr.times[k]), failure)
+    out = cut.trajectory
+    np.testing.assert_allclose(out.positions[-1], tr.positions[k], atol=1e-12)
+    np.testing.assert_allclose(out.positions[0], HOME, atol=1e-12)
+    assert np.array_equal(out.velocities[[0, -1]], np.zeros((2, 6)))
+    assert np.array_equal(out.accelerations[[0, -1]], np.zeros((2, 6)))
+    assert np.all(out.peak_velocity <= UR5.velocity_limits * (1 + 1e-9))
+    assert np.all(out.peak_acceleration <= UR5.acceleration_limits * (1 + 1e-9))
+    assert cut.failure is failure and cut.warnings[0].startswith("planned ")
+    assert not any("strays" in w for w in cut.warnings)
+    assert cut.diagnostics["max_position_deviation"] < 1e-3
+    # The segment it stops in is the one the plan was in at t; its window ends with the answer.
+    owner = max(s.index for s in res.segments if s.start_time <= tr.times[k])
+    assert cut.segments[-1].index == owner
+    last = cut.segments[-1]
+    assert (last.blend_out[1] if last.blend_out else last.end_time) == out.times[-1]
+    assert owner / 5 <= cut.fraction <= (owner + 1) / 5
+
+
+def test_stop_at_keeps_the_stretches_before_the_cut_as_planned():
+    """Two unblended LINs (two rest-to-rest stretches) cut in the second: the first is returned
+    exactly as planned; a cut at the stop between them is the first stretch alone."""
+    segs = (Segment("lin", goal_pose=at(0.1, 0, 0)), Segment("lin", goal_pose=at(0.1, 0.1, 0)))
+    res = plan_program(ProgramTask(UR5, HOME, segs, sample_period=0.004))
+    tr = res.trajectory
+    stop = res.segments[0].end_time
+    n = int(np.searchsorted(tr.times, stop)) + 1
+    t_cut = 0.5 * (stop + tr.times[-1])
+    cut = res.stop_at(t_cut, Collision("ahead"))
+    np.testing.assert_array_equal(cut.trajectory.positions[:n], tr.positions[:n])
+    np.testing.assert_array_equal(cut.trajectory.times[:n], tr.times[:n])
+    assert cut.trajectory.velocities[-1].tolist() == [0.0] * 6
+    p = UR5.fk(cut.trajectory.positions[-1])[:3, 3] - at(0.1, 0, 0)[:3, 3]
+    assert abs(p[0]) < 1e-6 and abs(p[2]) < 1e-6 and 0.0 < p[1] < 0.1
+    assert cut.fraction == pytest.approx((1 + p[1] / 0.1) / 2, abs=1e-4)
+    at_stop = res.stop_at(stop, Collision("ahead"))
+    mine = at_stop.trajectory
+    assert mine.times[-1] == stop
+    common, a, b = np.intersect1d(mine.times, tr.times, return_indices=True)
+    assert len(common) >= len(mine.times) - 2  # the last regular interval may be merged
+    np.testing.assert_array_equal(mine.positions[a], tr.positions[b])
+    assert at_stop.fraction == 0.5 and [s.index for s in at_stop.segments] == [0]
+    assert res.stop_at(0.0, Collision("ahead")) is None

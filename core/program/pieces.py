@@ -1,0 +1,212 @@
+"""A program's joint path as chunks of pieces (segments' own parts and blends), and their timing.
+
+The path is cut into chunks at every stop (an unblended segment goal); a chunk is a list of
+``Piece``s (a segment's own part, or a blend) that share their junction samples. ``time_chunk``
+times one chunk rest to rest (``core.program.timing``: time-optimal, or an S-curve), or a lone
+unblended PTP with a ``profile`` by that profile along its joint segment (``core.program.ptp``),
+and records when each piece and each of its samples is reached. Units: [rad or m], [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import InputError, PlanningError
+from core.limits import JointLimits
+from core.program.build import Geometry
+from core.program.chunk import ChunkInput, ChunkTiming
+from core.program.ptp import straight_ptp
+from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
+from core.program.timing import time_chunk
+from core.trajectory import Peaks, Profile
+
+__all__ = ["Piece", "ProfileTiming", "chunks_of", "profile_kind", "time_pieces"]
+
+
+@dataclass
+class Piece:
+    """A segment's own part (``blend`` False) or the blend out of it, as joint samples.
+
+    Attributes:
+        owner: The segment's index in the request.
+        blend: Whether this is the blend out of ``owner``.
+        q: Joint samples (K, dof); the first is the previous piece's last in the chunk.
+        T: Tool poses at them (K, 4, 4).
+        scales: Velocity and acceleration scale of the joint limits.
+        tool_speed: Linear and angular tool speed limits [m/s, rad/s] (inf: none).
+        tool_acc: Linear and angular tool acceleration limits [m/s^2, rad/s^2] (inf: none).
+        s: Path parameter of the owner at each sample (K,) (its own part), None for a blend.
+        times: (start, end) [s], in the chunk once timed, in the program once placed.
+        knots: Time [s] in the chunk of each sample (K,), once timed (None: a profiled PTP).
+    """
+
+    owner: int
+    blend: bool
+    q: np.ndarray
+    T: np.ndarray
+    scales: tuple[float, float]
+    tool_speed: tuple[float, float]
+    tool_acc: tuple[float, float]
+    s: np.ndarray | None = None
+    times: tuple[float, float] = (0.0, 0.0)
+    knots: np.ndarray | None = None
+
+
+def chunks_of(task: ProgramTask, geo: Geometry) -> list[list[Piece]]:
+    """The geometry as chunks (lists of pieces between stops)."""
+    robot = task.robot
+    chunks: list[list[Piece]] = [[]]
+    for sp in geo.segments:
+        seg = sp.seg
+        s, q = sp.piece()
+        # a knot spline (bounded_deviation) leaves the path within its tolerance: the tool's own
+        # poses, so its speed limits hold for the tool itself
+        T = sp.poses(robot, s) if sp.knot_count is None else robot.fk_many(q)
+        cart = seg.cartesian
+        acc = (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if cart else (np.inf, np.inf)
+        piece = Piece(
+            sp.index,
+            False,
+            q,
+            T,
+            (seg.velocity_scale, seg.acceleration_scale),
+            seg.tool_speeds(),
+            acc,
+            s,
+        )
+        chunks[-1].append(piece)
+        blend = geo.blends.get(sp.index)
+        if blend is None:
+            chunks.append([])
+            continue
+        nxt = next(p for p in geo.segments if p.index > sp.index).seg
+        chunks[-1].append(
+            Piece(
+                sp.index,
+                True,
+                blend.q,
+                blend.T,
+                (
+                    min(seg.velocity_scale, nxt.velocity_scale),
+                    min(seg.acceleration_scale, nxt.acceleration_scale),
+                ),
+                tuple(np.minimum(seg.tool_speeds(), nxt.tool_speeds())),
+                (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if blend.cartesian else acc,
+            )
+        )
+    return [c for c in chunks if c]
+
+
+def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
+    """Time one chunk; record each piece's (start, end) time and sample times in the chunk. None
+    if it is still."""
+    robot = task.robot
+    qs, Ts, starts = [], [], []
+    rows: dict[str, list[np.ndarray]] = {"v": [], "a": [], "ts": [], "ta": []}
+    for k, p in enumerate(chunk):
+        first = 0 if k == 0 else 1  # pieces share their junction sample
+        starts.append(sum(len(x) for x in qs) - (0 if k == 0 else 1))
+        n = len(p.q) - first
+        qs.append(p.q[first:])
+        Ts.append(p.T[first:])
+        rows["v"].append(np.tile(robot.velocity_limits * p.scales[0], (n, 1)))
+        rows["a"].append(np.tile(robot.acceleration_limits * p.scales[1], (n, 1)))
+        rows["ts"].append(np.tile(p.tool_speed, (n, 1)))
+        rows["ta"].append(np.tile(p.tool_acc, (n, 1)))
+    q = np.concatenate(qs)
+    ends = [*starts[1:], len(q) - 1]
+    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    if step.sum() < 1e-12:
+        return None
+    keep = np.concatenate([[True], step > 1e-13])
+    index = np.cumsum(keep) - 1  # old sample -> kept sample
+    asking = [
+        task.segments[p.owner]
+        for p in chunk
+        if not p.blend and task.segments[p.owner].speed_profile == "s_curve"
+    ]
+    jerk = None
+    if asking:  # one S-curve for the stretch, under the tightest jerk limits asked
+        jerk = tuple(np.min([seg.tool_jerks() for seg in asking], axis=0).tolist())
+    c = ChunkInput(
+        q[keep],
+        np.concatenate(Ts)[keep],
+        np.concatenate(rows["v"])[keep],
+        np.concatenate(rows["a"])[keep],
+        np.concatenate(rows["ts"])[keep],
+        np.concatenate(rows["ta"])[keep],
+        jerk,
+    )
+    timing = time_chunk(c)
+    for p, a, b in zip(chunk, starts, ends, strict=True):
+        p.times = (float(timing.knot_times[index[a]]), float(timing.knot_times[index[b]]))
+        p.knots = timing.knot_times[index[a : b + 1]]
+    return timing
+
+
+@dataclass(frozen=True)
+class ProfileTiming:
+    """A chunk that is one unblended PTP, timed by its joint profile (``core.program.ptp``): rest
+    to rest along the joint segment, sampled exactly (``sample`` as ``ChunkTiming.sample``).
+
+    Attributes:
+        profile: The straight-line profile (``StraightProfile``), t in [0, duration] [s].
+        duration: Its length [s].
+        stretch: 1.0 (the profile is timed within the limits by construction).
+    """
+
+    profile: Profile
+    duration: float
+    stretch: float = 1.0
+
+    def peaks(self) -> Peaks:
+        """The profile's exact peaks."""
+        return self.profile.peaks()
+
+    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities, accelerations (N, dof) at times ``t`` (N,) [s]."""
+        return self.profile.sample(np.clip(np.asarray(t, dtype=float), 0.0, self.duration))
+
+
+def profile_kind(task: ProgramTask, chunk: list[Piece]) -> str | None:
+    """The joint profile a chunk is timed with: a lone PTP piece (rest to rest) that asks for one."""
+    if len(chunk) != 1 or chunk[0].blend:
+        return None
+    seg = task.segments[chunk[0].owner]
+    return seg.profile if seg.type == "ptp" else None
+
+
+def _profile_time(task: ProgramTask, chunk: list[Piece], kind: str) -> ProfileTiming | None:
+    """Time a lone PTP with joint profile ``kind`` under its scaled limits; None if it is still."""
+    robot, p = task.robot, chunk[0]
+    seg = task.segments[p.owner]
+    q0, q1 = p.q[0], p.q[-1]
+    if np.abs(q1 - q0).max() < 1e-12:
+        return None
+    limits = JointLimits(
+        velocity=np.asarray(robot.velocity_limits, dtype=float) * seg.velocity_scale,
+        acceleration=np.asarray(robot.acceleration_limits, dtype=float) * seg.acceleration_scale,
+        jerk=robot.jerk_limits,
+    )
+    try:
+        profile = straight_ptp(kind, q0, q1, limits, task.deadline)
+    except PlanningError as err:
+        err.extra["segment"] = p.owner
+        if isinstance(err, InputError):
+            err.field = ("segments", p.owner, "profile")
+        raise
+    p.times = (0.0, profile.duration)
+    return ProfileTiming(profile, profile.duration)
+
+
+def time_pieces(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | ProfileTiming | None:
+    """Time ``chunk`` rest to rest (by its PTP's profile when ``profile_kind`` names one); each
+    piece's ``times`` (and ``knots``) are set within the chunk. None if no joint moves."""
+    kind = profile_kind(task, chunk)
+    try:
+        return _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
+    except PlanningError as err:  # e.g. an S-curve over Ruckig's duration cap
+        err.extra.setdefault("segment", chunk[0].owner)
+        raise
