@@ -362,6 +362,25 @@ def test_fixed_joints(client: TestClient) -> None:
     assert err["redundant_joints"] == []
 
 
+def test_one_solution_releases_the_held_joint_before_unreachable(client: TestClient) -> None:
+    # a reachable pose (FK of q inside the limits) with no solution at joint 7 = home's value:
+    # all: true holds it there (none: 422), all: false looks further and answers one
+    panda = registry.get("panda")
+    lo, hi = panda.position_limits.T
+    qs = np.random.default_rng(5).uniform(lo, hi, (40, 7))
+    q = next(q for q in qs if not len(panda.ik_all(panda.fk(q))))
+    pose = pose_of("panda", q)
+    held = problem(
+        client.post("/v1/robots/panda/ik", json={"pose": pose, "all": True}), 422, "unreachable"
+    )  # it was 422 joint_limit "reachable only with joint ... outside its limits": untrue
+    assert held["redundant_joints"] == ["panda_joint7"] and "all: false" in held["detail"]
+    one = client.post("/v1/robots/panda/ik", json={"pose": pose})
+    assert one.status_code == 200, one.text
+    x = np.array(one.json()["positions"])
+    assert np.all(x >= lo) and np.all(x <= hi) and one.json()["solver"] == "analytic"
+    np.testing.assert_allclose(panda.fk(x), panda.fk(q), atol=1e-9)
+
+
 def test_unreachable_names_the_reach(client: TestClient) -> None:
     pose = {"position": [2.5, 0, 0.3], "orientation": [0, 0, 0, 1]}
     body = problem(
