@@ -40,9 +40,9 @@ from robots.ik import (
 )
 
 TWO_PI = 2.0 * math.pi
-HELD_VALUES = 64
+HELD_VALUES = 128
 """Values of an analytic 7R arm's held joint tried, over one turn of its range."""
-RETRY_STARTS = 96
+RETRY_STARTS = 40
 """Starts of the released numeric search, besides the seed and home."""
 RETRY_SECONDS = 1.0
 """[s]: longest second effort of one call (less when the request's deadline is nearer)."""
