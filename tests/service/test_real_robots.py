@@ -417,6 +417,28 @@ def test_a_hand_with_fingers_has_no_default_tip_at_any_endpoint(client: TestClie
     assert d["base_frame"] == "panda_link0" and d["dof"] == 7
 
 
+def test_one_ik_solution_of_a_numeric_8_joint_arm_from_home(client: TestClient) -> None:
+    # the Panda to its left finger (7 revolute joints and the prismatic finger: numeric IK, joint 7
+    # and the finger held at home's values at first): reachable poses the first search misses
+    robot = {**inline("panda_hand"), "tip_frame": "panda_leftfinger"}
+    d = ok(client, "/v1/robots/describe", {"robot": robot})
+    assert d["ik"]["solver"] == "numeric" and d["dof"] == 8
+    lo, hi = np.array(d["limits"]["position"]).T
+    model, data = reference_model(robot["urdf"])
+    base, tip = body_frame(model, "panda_link0"), body_frame(model, "panda_leftfinger")
+    missed = 0
+    for q in np.random.default_rng(2).uniform(lo, hi, (6, 8)):
+        pose = ok(client, "/v1/fk", {"robot": robot, "positions": q.tolist()})["pose"]
+        every = client.post("/v1/ik", json={"robot": robot, "pose": pose, "all": True})
+        missed += every.status_code == 422
+        x = np.array(ok(client, "/v1/ik", {"robot": robot, "pose": pose})["positions"])
+        assert np.all(x >= lo) and np.all(x <= hi)
+        pin.framesForwardKinematics(model, data, reference_q(model, d["joint_names"], x))
+        reached = data.oMf[base].actInv(data.oMf[tip]).homogeneous
+        np.testing.assert_allclose(reached, pose_matrix(pose), atol=1e-8)
+    assert missed > 0  # all: true holds joint 7 and the finger: some poses have no solution there
+
+
 SWEEP: dict[str, tuple[str, str, str]] = {
     **{name: ARMS[name][:3] for name in ARMS},
     "ur5_world_ee": ("ur5_robot.urdf", "world", "ee_link"),
