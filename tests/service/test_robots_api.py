@@ -13,6 +13,7 @@ from core.geometry.so3 import quat_to_matrix
 from robots import registry
 from service.app import create_app
 from service.routes import robots as robots_route
+from service.settings import Settings
 from tests.robots.inline_urdfs import joint, robot
 
 
@@ -379,6 +380,10 @@ def test_one_solution_releases_the_held_joint_before_unreachable(client: TestCli
     x = np.array(one.json()["positions"])
     assert np.all(x >= lo) and np.all(x <= hi) and one.json()["solver"] == "analytic"
     np.testing.assert_allclose(panda.fk(x), panda.fk(q), atol=1e-9)
+    # the second effort is bounded by the request's deadline: with none left it does not run
+    with TestClient(create_app(Settings(time_budget_s=1e-9))) as spent:
+        r = spent.post("/v1/robots/panda/ik", json={"pose": pose})
+    assert r.status_code == 422 and r.json()["code"] == "unreachable", r.text
 
 
 def test_unreachable_names_the_reach(client: TestClient) -> None:
