@@ -269,7 +269,6 @@ def ik_all(
         raise InputError("IK needs a finite 4x4 pose", field=("pose",))
     held = held_values(robot, seed, fixed_joints)
     Q, solver = _candidates(robot, T, seed, held)
-    warnings: list[str] = []
     Q = _dedupe(_verified(robot, T, Q, held), robot.revolute)
     inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
     if not len(inside) and solver == "analytic":
@@ -282,6 +281,16 @@ def ik_all(
         inside = _turns(Q, seed, robot.position_limits, robot.revolute, False)
     outside = len(Q) - len(inside)
     Q = _turns(Q, seed, robot.position_limits, robot.revolute, True) if turns else inside
+    return solutions(robot, T, Q, seed, solver, outside)
+
+
+def solutions(
+    robot: Robot, T: np.ndarray, Q: np.ndarray, seed: np.ndarray, solver: str, outside: int = 0
+) -> IKSolutions:
+    """``IKSolutions`` of verified, distinct rows ``Q`` ``(k, dof)`` inside the limits: nearest the
+    seed first, with their errors, labels and a warning near a singularity (``outside``: solutions
+    dropped for the limits, reported as such)."""
+    warnings: list[str] = []
     order = np.argsort(np.linalg.norm(Q - seed, axis=1), kind="stable")
     Q = Q[order]
     if not len(Q):

@@ -19,12 +19,14 @@ import casadi as ca
 import numpy as np
 import pinocchio as pin
 
+from core.budget import NO_DEADLINE, Deadline
 from core.errors import InputError, UnknownFrame
 from core.kinematics import TASK_SPACES, IKResult, task_rows
 from robots import configurations as _configurations
 from robots import ik as _ik
 from robots import ik_analytic as _ik_analytic
 from robots import ik_numeric as _ik_numeric
+from robots import ik_retry as _ik_retry
 from robots.chain import Chain
 from robots.symbolic import fk_casadi
 
@@ -246,6 +248,21 @@ class Robot:
         """Every IK solution of ``T_base_tool`` inside the limits, verified to 1e-9 m and 1e-9 rad,
         nearest ``seed`` (default home) first; see ``robots.ik.ik_all``."""
         return _ik.ik_all(self, T_base_tool, seed, dict(fixed_joints or {}), turns)
+
+    def ik_one(
+        self,
+        T_base_tool: np.ndarray,
+        seed: np.ndarray | None = None,
+        fixed_joints: Mapping[str, float] | None = None,
+        configuration: str | None = None,
+        deadline: Deadline = NO_DEADLINE,
+    ) -> _ik.IKSolutions:
+        """What the single-solution IK answers from: ``ik_all``, and when none of its solutions has
+        ``configuration``, a second effort (redundant joints the request does not fix released,
+        more starts) bounded by ``deadline``; see ``robots.ik_retry``."""
+        return _ik_retry.ik_one(
+            self, T_base_tool, seed, dict(fixed_joints or {}), configuration, deadline
+        )
 
     def ik_all_many(self, Ts: np.ndarray, seed: np.ndarray | None = None) -> list[_ik.IKSolutions]:
         """``ik_all`` for many poses ``(N, 4, 4)`` at once (batched for analytic 6R arms)."""

@@ -14,12 +14,16 @@ panda         7  panda_link0    panda_link8  Franka Emika Panda, flange (modifie
 
 Client URDFs (``load_inline``) are screened by ``robots.urdf_screen``; the robot's joints are the
 movable joints on the path from the root to ``tip_frame`` (every other joint is locked at 0 with
-``pin.buildReducedModel``), so URDFs with fingers or branches work. Defaults for what a URDF leaves
+``pin.buildReducedModel``), so URDFs with fingers or branches work. ``base_frame`` defaults to the root
+link and ``tip_frame`` to the end of the chain below it (``robots.urdf_screen.default_tip``: 422
+``invalid_urdf`` naming the candidate leaves when the tree branches). Defaults for what a URDF leaves
 out: velocity ``DEFAULT_VELOCITY`` (pi rad/s revolute, 1 m/s prismatic) where the URDF's is missing
 or 0, acceleration ``DEFAULT_ACCELERATION`` (10 rad/s^2, 5 m/s^2), home = zeros clipped into the
 limits, task space ``position_xy`` when every joint moves the tip in the base x-y plane (revolute
 about base z, prismatic perpendicular to it), else ``pose``. Parsed client models are cached (LRU,
-``TRAJ_URDF_CACHE_SIZE`` entries, default 32) by the sha256 of (urdf, tip_frame, base_frame).
+``TRAJ_URDF_CACHE_SIZE`` entries, default 32) by the sha256 of (urdf, tip_frame, base_frame) with the
+frames resolved (the robot's name is ``inline-`` and that hash), and, when a frame was left out, also
+under the frames as given (absent ones marked as such), so a repeated request skips the screening.
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ import pinocchio as pin
 from core.errors import InputError, InvalidURDF, UnknownRobot
 from robots import ik_numeric as _ik
 from robots.model import Robot
-from robots.urdf_screen import screen_urdf
+from robots.urdf_screen import ScreenedURDF, screen_urdf
 
 PI = math.pi
 DEFAULT_VELOCITY = {"revolute": PI, "prismatic": 1.0}
@@ -174,7 +178,7 @@ def get(name: str) -> Robot:
 def _build_shipped(name: str) -> Robot:
     d = DESCRIPTIONS[name]
     urdf = resources.files("robots").joinpath("urdf", d.urdf).read_text(encoding="utf-8")
-    model, _ = _reduced_model(urdf, d.tip_frame, d.base_frame)
+    model, _, _ = _reduced_model(urdf, d.tip_frame, d.base_frame)
     closed_form = None
     if d.link_lengths is not None:
         l1, l2 = d.link_lengths
@@ -188,8 +192,11 @@ def _build_shipped(name: str) -> Robot:
     )  # fmt: skip
 
 
-def _reduced_model(urdf: str, tip: str, base: str) -> tuple[pin.Model, dict[str, str]]:
-    """Screened URDF -> pinocchio model of the root-to-tip chain; returns it and the joint types."""
+def _reduced_model(
+    urdf: str, tip: str | None, base: str | None
+) -> tuple[pin.Model, dict[str, str], ScreenedURDF]:
+    """Screened URDF -> pinocchio model of the root-to-tip chain; returns it, the joint types and the
+    screening's result (its frames resolved: ``None`` frames get their defaults)."""
     screened = screen_urdf(urdf, tip, base)
     try:
         model = pin.buildModelFromXML(_lock_off_chain(screened.xml, set(screened.chain)))
@@ -197,7 +204,7 @@ def _reduced_model(urdf: str, tip: str, base: str) -> tuple[pin.Model, dict[str,
         raise InvalidURDF(
             "the URDF could not be turned into a kinematic model", field=("robot", "urdf")
         ) from e
-    return model, screened.joint_types
+    return model, screened.joint_types, screened
 
 
 def _lock_off_chain(xml: str, chain: set[str]) -> str:
@@ -230,17 +237,40 @@ def cache_size() -> int:
         return 32
 
 
-def load_inline(urdf: str, tip_frame: str, base_frame: str) -> Robot:
-    """A robot from client URDF text (screened, size-limited, cached by content hash).
+def _key(urdf: str, tip_frame: str | None, base_frame: str | None) -> str:
+    """The cache key of a client model: sha256 of the three texts joined by NUL (no URDF or link name
+    that screening accepts holds a NUL), with a fourth part marking frames left out (``None``)."""
+    parts = (urdf, tip_frame or "", base_frame or "")
+    if tip_frame is None or base_frame is None:
+        parts += ("default frames",)
+    return hashlib.sha256("\0".join(parts).encode("utf-8")).hexdigest()
 
-    Raises ``InvalidURDF`` or ``TooLarge`` saying what is wrong.
-    """
-    key = hashlib.sha256("\0".join((urdf, tip_frame, base_frame)).encode("utf-8")).hexdigest()
+
+def _cached(key: str) -> Robot | None:
     with _cache_lock:
         if key in _cache:
             _cache.move_to_end(key)
             return _cache[key]
-    model, types = _reduced_model(urdf, tip_frame, base_frame)
+    return None
+
+
+def load_inline(urdf: str, tip_frame: str | None = None, base_frame: str | None = None) -> Robot:
+    """A robot from client URDF text (screened, size-limited, cached by content hash). A frame left
+    out (``None``) gets its default: the root link for the base, the end of the chain for the tip.
+
+    Raises ``InvalidURDF`` or ``TooLarge`` saying what is wrong.
+    """
+    given = _key(urdf, tip_frame, base_frame)
+    robot = _cached(given)
+    if robot is not None:
+        return robot
+    model, types, screened = _reduced_model(urdf, tip_frame, base_frame)
+    tip_frame, base_frame = screened.tip_frame, screened.base_frame
+    key = _key(urdf, tip_frame, base_frame)
+    robot = _cached(key)
+    if robot is not None:  # the same robot asked for with its frames named
+        _store(given, robot)
+        return robot
     kinds = [types[n] for n in model.names[1:]]
     vel = np.array(
         [
@@ -259,11 +289,18 @@ def load_inline(urdf: str, tip_frame: str, base_frame: str) -> Robot:
             "acceleration": "service default: 10 rad/s^2 (revolute), 5 m/s^2 (prismatic)",
         },
     )  # fmt: skip
+    _store(key, robot)
+    if given != key:
+        _store(given, robot)
+    return robot
+
+
+def _store(key: str, robot: Robot) -> None:
     with _cache_lock:
         _cache[key] = robot
+        _cache.move_to_end(key)
         while len(_cache) > cache_size():
             _cache.popitem(last=False)
-    return robot
 
 
 def _planar_or_pose(model: pin.Model, tip: str, base: str, kinds: list[str]) -> str:
@@ -286,14 +323,16 @@ def _planar_or_pose(model: pin.Model, tip: str, base: str, kinds: list[str]) -> 
 
 
 def resolve(ref: Any) -> Robot:
-    """A ``Robot`` from a registered name or an inline model (a dict or an object with ``urdf``,
-    ``tip_frame`` and ``base_frame``)."""
+    """A ``Robot`` from a registered name or an inline model (a dict or an object with ``urdf`` and
+    optional ``tip_frame`` and ``base_frame``: absent or ``None``, their defaults)."""
     if isinstance(ref, Robot):
         return ref
     if isinstance(ref, str):
         return get(ref)
     get_ = ref.get if isinstance(ref, dict) else lambda k: getattr(ref, k, None)
     urdf, tip, base = get_("urdf"), get_("tip_frame"), get_("base_frame")
-    if not all(isinstance(v, str) for v in (urdf, tip, base)):
-        raise InputError("robot must be a name or {urdf, tip_frame, base_frame}", field=("robot",))
+    if not isinstance(urdf, str) or not all(v is None or isinstance(v, str) for v in (tip, base)):
+        raise InputError(
+            "robot must be a name or {urdf, tip_frame?, base_frame?} (strings)", field=("robot",)
+        )
     return load_inline(urdf, tip, base)

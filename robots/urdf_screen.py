@@ -20,6 +20,15 @@ Rules, checked in this order (each rejection says what is wrong and never echoes
 7. ``tip_frame`` and ``base_frame`` are links; the base is fixed to the root (no movable joint between
    them); at least one movable joint lies between the root and the tip.
 
+Frames left out (``None``) get defaults (``default_tip``): the base is the root link; the tip is the
+end of the chain below the base. That needs the movable joints below the base to form one chain:
+every leaf link reached through movable joints (then fixed ones) has the same movable joints on its
+way, or a prefix of the longest such list (a sensor fixed to a middle link is not another chain).
+Of the leaves after the last movable joint, ``tool0`` (REP 199's flange frame, ROS-Industrial's tool
+frame) is taken when it is one of them, else the deepest (most fixed joints after that joint). A
+tree that branches through movable joints (a hand with fingers, two arms, legs) or ends in several
+equally deep leaves has no unique tip: ``InvalidURDF`` at ``robot.tip_frame`` listing the candidates.
+
 The screened model is rewritten as a minimal URDF (links and joints only): ``<visual>``,
 ``<collision>``, ``<inertial>``, ``<transmission>``, ``<mimic>`` and every other element are dropped,
 so meshes are never loaded. Continuous joints become revolute joints with position limits
@@ -64,6 +73,8 @@ class ScreenedURDF:
         joint_types: Type of each movable joint on the chain (after continuous -> revolute), by name.
         continuous: Names of the joints converted from continuous to revolute.
         link_names: Every link, in document order.
+        tip_frame: The tool frame: the one asked for, or the default (see the module docstring).
+        base_frame: The base frame: the one asked for, or the root link.
     """
 
     xml: str
@@ -71,6 +82,8 @@ class ScreenedURDF:
     joint_types: dict[str, str]
     continuous: tuple[str, ...]
     link_names: tuple[str, ...]
+    tip_frame: str
+    base_frame: str
 
 
 def _name(s: str) -> str:
@@ -202,13 +215,67 @@ def _links_and_joints(root: ET.Element) -> tuple[list[str], list[ET.Element]]:
     return links, joints
 
 
-def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
+MAX_LISTED = 16
+"""Most candidate tips named in an error message (the ``candidates`` field lists every one)."""
+
+
+def default_tip(base: str, children: dict[str, list[tuple[str, str]]], order: list[str]) -> str:
+    """The end of the chain below ``base`` (rules in the module docstring); ``InvalidURDF`` at
+    ``robot.tip_frame`` when there is none or no unique one.
+
+    Args:
+        children: Link -> ``(joint type, child link)`` of each joint whose parent it is.
+        order: Every link in document order (the order candidates are listed in).
+    """
+    # (leaf, the child links of the movable joints on the way, fixed joints after the last one)
+    leaves: list[tuple[str, tuple[str, ...], int]] = []
+    stack: list[tuple[str, tuple[str, ...], int]] = [(base, (), 0)]
+    while stack:  # the links form a tree (checked before): every link is visited once
+        link, movable, depth = stack.pop()
+        if not children.get(link) and movable:
+            leaves.append((link, movable, depth))
+        for jtype, child in children.get(link, []):
+            if jtype == "fixed":
+                stack.append((child, movable, depth + 1))
+            else:
+                stack.append((child, (*movable, child), 0))
+    field = ("robot", "tip_frame")
+    if not leaves:
+        raise InvalidURDF(
+            "no movable joint lies below base_frame, so there is no chain to default tip_frame to",
+            field=field,
+        )
+    index = {name: k for k, name in enumerate(order)}
+    longest = max((m for _, m, _ in leaves), key=len)
+    one_chain = all(m == longest[: len(m)] for _, m, _ in leaves)
+    ends = [(leaf, depth) for leaf, m, depth in leaves if m == longest] if one_chain else []
+    if any(leaf == "tool0" for leaf, _ in ends):
+        return "tool0"
+    deepest = max((d for _, d in ends), default=-1)
+    tips = [leaf for leaf, d in ends if d == deepest]
+    if len(tips) == 1:
+        return tips[0]
+    candidates = sorted((leaf for leaf, _ in ends) if ends else (leaf for leaf, _, _ in leaves),
+                        key=index.__getitem__)  # fmt: skip
+    named = ", ".join(_name(c) for c in candidates[:MAX_LISTED])
+    why = "ends in several equally deep links" if one_chain else "branches through movable joints"
+    raise InvalidURDF(
+        f"the URDF {why} below base_frame, so it has no unique tip; name tip_frame, one of "
+        f"{len(candidates)} leaf links: {named}{', ...' if len(candidates) > MAX_LISTED else ''}",
+        field=field,
+        extra={"candidates": candidates},
+    )
+
+
+def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> ScreenedURDF:
     """Check ``urdf`` against every rule above; raise ``InvalidURDF`` or ``TooLarge`` on the first
-    broken one, else return the minimal URDF and the movable chain from the root to ``tip_frame``."""
+    broken one, else return the minimal URDF and the movable chain from the root to ``tip_frame``.
+    A frame given as ``None`` gets its default (``default_tip``, the root link for the base)."""
     _precheck(urdf)
     links, joints = _links_and_joints(_parse(urdf))
     link_set = set(links)
     parent_of: dict[str, tuple[str, str, str]] = {}  # child link -> (joint, type, parent link)
+    children: dict[str, list[tuple[str, str]]] = {}  # parent link -> (type, child link)
     out = ET.Element("robot", name="screened")
     for name in links:
         ET.SubElement(out, "link", name=name)
@@ -237,6 +304,7 @@ def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
         if jtype == "continuous":
             continuous.append(jname)
         parent_of[clink] = (jname, types[jname], plink)
+        children.setdefault(plink, []).append((types[jname], clink))  # type: ignore[arg-type]
         out.append(element)
     roots = [name for name in links if name not in parent_of]
     if len(roots) != 1:
@@ -256,8 +324,12 @@ def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
     for link in links:  # a cycle leaves some link unreachable from the single root
         path_to_root(link)
     available = {"links": links[: 2 * MAX_JOINTS]}
-    for frame, fname in ((tip_frame, "tip_frame"), (base_frame, "base_frame")):
-        if frame not in link_set:
+    base_frame = roots[0] if base_frame is None else base_frame
+    frames = (("base_frame", base_frame), ("tip_frame", tip_frame))
+    if tip_frame is not None:  # both given: the tip is reported first, as it always was
+        frames = frames[::-1]
+    for fname, frame in frames:
+        if frame is not None and frame not in link_set:
             raise InvalidURDF(
                 f"{fname} names no link of the URDF", field=("robot", fname), extra=available
             )
@@ -266,6 +338,8 @@ def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
             "base_frame must be fixed to the URDF's root link (a movable joint lies between them)",
             field=("robot", "base_frame"),
         )
+    if tip_frame is None:
+        tip_frame = default_tip(base_frame, children, links)
     chain = tuple(j for j, t in reversed(path_to_root(tip_frame)) if t != "fixed")
     if not chain:
         raise InvalidURDF(
@@ -285,4 +359,6 @@ def screen_urdf(urdf: str, tip_frame: str, base_frame: str) -> ScreenedURDF:
         joint_types={j: types[j] for j in chain},
         continuous=tuple(continuous),
         link_names=tuple(links),
+        tip_frame=tip_frame,
+        base_frame=base_frame,
     )

@@ -5,14 +5,15 @@ solution, configuration labels), and the same for inline robots (POST /v1/fk, /v
 from __future__ import annotations
 
 import numpy as np
-from fastapi import APIRouter, Path
+from fastapi import APIRouter, Depends, Path
 
+from core.budget import Deadline
 from core.errors import InputError, JointLimit, Unreachable
 from robots import ik as robot_ik
 from robots import registry
 from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
-from service import environment
+from service import deps, environment
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
@@ -180,7 +181,7 @@ def forward_kinematics_inline(body: InlineFKRequest) -> FKResponse:
     return _fk(registry.resolve(body.robot), body)
 
 
-def _ik(robot: Robot, body: IKRequest) -> IKResponse | IKAllResponse:
+def _ik(robot: Robot, body: IKRequest, deadline: Deadline) -> IKResponse | IKAllResponse:
     seed = None
     if body.seed is not None:
         if len(body.seed) != robot.dof:
@@ -196,7 +197,10 @@ def _ik(robot: Robot, body: IKRequest) -> IKResponse | IKAllResponse:
             extra={"configurations": list(labels)},
         )
     T = body.pose.as_matrix()
-    found = robot.ik_all(T, seed, body.fixed_joints, turns=body.turns and body.all)
+    if body.all:
+        found = robot.ik_all(T, seed, body.fixed_joints, turns=body.turns)
+    else:  # one solution: a second effort before "unreachable" (robots.ik_retry)
+        found = robot.ik_one(T, seed, body.fixed_joints, body.configuration, deadline)
     keep = [
         k
         for k, label in enumerate(found.configurations)
@@ -246,6 +250,14 @@ def _no_solution(
             extra={"configurations": existing},
         )
     result = robot_ik.search(robot, T, seed)
+    if result.success and robot.redundant_joints:  # solved with every joint free
+        held = list(robot.redundant_joints)
+        raise Unreachable(
+            f"no solution with the redundant joints ({', '.join(held)}) held at fixed_joints or "
+            "the seed's values; the pose is reachable with them elsewhere (all: false releases "
+            "those fixed_joints does not name)",
+            extra={"redundant_joints": held},
+        )
     free = robot_ik.search(robot, T, seed, respect_limits=False)
     if found.outside_limits or (free.position_error <= 1e-6 and free.orientation_error <= 1e-6):
         q = free.positions
@@ -278,8 +290,10 @@ def _no_solution(
     responses=PROBLEM_RESPONSES,
     summary="Inverse kinematics of the tool pose: one solution or every one (all: true)",
 )
-def inverse_kinematics(body: IKRequest, name: str = RobotName) -> IKResponse | IKAllResponse:
-    return _ik(registry.get(name), body)
+def inverse_kinematics(
+    body: IKRequest, name: str = RobotName, deadline: Deadline = Depends(deps.request_deadline)
+) -> IKResponse | IKAllResponse:
+    return _ik(registry.get(name), body, deadline)
 
 
 @router.post(
@@ -288,5 +302,7 @@ def inverse_kinematics(body: IKRequest, name: str = RobotName) -> IKResponse | I
     responses=PROBLEM_RESPONSES,
     summary="Inverse kinematics of any robot (registered name or inline URDF in the body)",
 )
-def inverse_kinematics_inline(body: InlineIKRequest) -> IKResponse | IKAllResponse:
-    return _ik(registry.resolve(body.robot), body)
+def inverse_kinematics_inline(
+    body: InlineIKRequest, deadline: Deadline = Depends(deps.request_deadline)
+) -> IKResponse | IKAllResponse:
+    return _ik(registry.resolve(body.robot), body, deadline)

@@ -71,8 +71,20 @@ class InlineRobot(StrictModel):
         max_length=MAX_URDF_BYTES,
         description="URDF XML, at most 1 MiB and 64 joints; revolute, prismatic, continuous, fixed.",
     )
-    tip_frame: str = Field(min_length=1, max_length=256, description="Tool frame (link) name.")
-    base_frame: str = Field(min_length=1, max_length=256, description="Base frame (link) name.")
+    tip_frame: str | None = Field(
+        default=None,
+        min_length=1,
+        max_length=256,
+        description="Tool frame (link) name. Default: the end of the chain below the base (tool0 "
+        "when it is one of the last links, else the deepest); a tree that branches (fingers, two "
+        "arms) has none: 422 invalid_urdf listing the candidate links.",
+    )
+    base_frame: str | None = Field(
+        default=None,
+        min_length=1,
+        max_length=256,
+        description="Base frame (link) name; default: the URDF's root link.",
+    )
 
 
 RobotRef = Annotated[

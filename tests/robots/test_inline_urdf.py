@@ -225,3 +225,79 @@ def test_base_must_be_fixed_to_the_root() -> None:
 def test_a_movable_joint_must_lie_before_the_tip() -> None:
     urdf = robot(joint("f", "l0", "l1", "fixed"), joint("j", "l1", "l2"), links=["l0", "l1", "l2"])
     reject(urdf, "no movable joint", tip="l1")
+
+
+# --- default frames --------------------------------------------------------------------------------
+
+
+def test_default_base_is_the_root_and_default_tip_the_end_of_the_chain() -> None:
+    # a sensor fixed to a middle link is no second chain; of the links after the last joint the
+    # deepest is the tip (tool_tip, two fixed joints after j3)
+    urdf = robot(
+        joint("j1", "root", "l1"),
+        joint("j2", "l1", "l2", xyz="0.4 0 0"),
+        joint("cam", "l2", "camera", "fixed", xyz="0 0.1 0"),
+        joint("j3", "l2", "l3", xyz="0.3 0 0"),
+        joint("flange", "l3", "flange", "fixed", xyz="0.1 0 0"),
+        joint("tool", "flange", "tool_tip", "fixed", xyz="0.05 0 0"),
+        joint("marker", "l3", "marker", "fixed", xyz="0 0 0.02"),
+        links=["root", "l1", "l2", "camera", "l3", "flange", "tool_tip", "marker"],
+    )
+    screened = urdf_screen.screen_urdf(urdf, None, None)
+    assert (screened.base_frame, screened.tip_frame) == ("root", "tool_tip")
+    assert screened.chain == ("j1", "j2", "j3")
+    # the same robot as with the frames named: one cache entry's robot, one name
+    named = registry.load_inline(urdf, "tool_tip", "root")
+    assert registry.load_inline(urdf) is named
+    assert registry.resolve({"urdf": urdf, "tip_frame": None}) is named
+    assert registry.load_inline(urdf, base_frame="root") is named
+    # a base below the root: the tree below it
+    assert urdf_screen.screen_urdf(chain(3), None, "l0").tip_frame == "l3"
+
+
+def test_tool0_is_the_default_tip_among_equally_deep_links() -> None:
+    ends = [joint("j", "base", "l1"), joint("e", "l1", "ee_link", "fixed", xyz="0 0.1 0")]
+    links = ["base", "l1", "ee_link"]
+    with pytest.raises(InvalidURDF) as err:
+        urdf_screen.screen_urdf(
+            robot(*ends, joint("t", "l1", "tool1", "fixed"), links=[*links, "tool1"]), None, None
+        )
+    assert err.value.field == ("robot", "tip_frame")
+    assert err.value.extra["candidates"] == ["ee_link", "tool1"]
+    assert "ee_link, tool1" in err.value.detail and "name tip_frame" in err.value.detail
+    urdf = robot(*ends, joint("t", "l1", "tool0", "fixed"), links=[*links, "tool0"])
+    assert urdf_screen.screen_urdf(urdf, None, None).tip_frame == "tool0"
+
+
+def test_a_tree_branching_through_movable_joints_has_no_default_tip() -> None:
+    with pytest.raises(InvalidURDF) as err:
+        registry.load_inline(OFFSET_BASE_URDF)  # fingers fa and fb are prismatic joints off l4
+    assert err.value.field == ("robot", "tip_frame")
+    assert err.value.extra["candidates"] == ["tool", "fa", "fb"]
+    assert "branches through movable joints" in err.value.detail
+    assert "tool, fa, fb" in err.value.detail
+    # two arms on one base
+    arms = robot(
+        joint("a", "base", "left"), joint("b", "base", "right"), links=["base", "left", "right"]
+    )
+    with pytest.raises(InvalidURDF) as err:
+        registry.load_inline(arms)
+    assert err.value.extra["candidates"] == ["left", "right"]
+    # nothing movable below the base
+    fixed = robot(joint("f", "base", "plate", "fixed"), links=["base", "plate"])
+    with pytest.raises(InvalidURDF) as err:
+        registry.load_inline(fixed)
+    assert err.value.field == ("robot", "tip_frame") and "no movable joint" in err.value.detail
+    # the base is checked first: a movable joint above it is that error, not the tip's
+    with pytest.raises(InvalidURDF) as err:
+        registry.load_inline(chain(3), None, "l1")
+    assert err.value.field == ("robot", "base_frame")
+
+
+def test_many_candidates_are_listed_in_full_and_named_in_part() -> None:
+    parts = [joint(f"j{k}", "base", f"leg{k}") for k in range(20)]
+    with pytest.raises(InvalidURDF) as err:
+        registry.load_inline(robot(*parts, links=["base"] + [f"leg{k}" for k in range(20)]))
+    assert len(err.value.extra["candidates"]) == 20
+    assert "20 leaf links" in err.value.detail and err.value.detail.endswith(", ...")
+    assert "leg15" in err.value.detail and "leg16" not in err.value.detail

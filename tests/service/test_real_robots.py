@@ -328,6 +328,117 @@ def test_describe_real_urdfs_that_were_refused_or_failed(client: TestClient) -> 
     ]
 
 
+def frameless(file: str) -> dict[str, str]:
+    """An inline robot without tip_frame and base_frame: the service picks them."""
+    return {"urdf": (FIXTURES / file).read_text(encoding="utf-8")}
+
+
+@pytest.mark.parametrize(
+    ("file", "base", "tip", "q"),
+    [
+        # tool0 and ee_link are both fixed to wrist_3_link: tool0 (REP 199's tool frame)
+        ("ur5_robot.urdf", "world", "tool0", ARMS["ur5"][3]),
+        ("two_joint_robot.urdf", "base_link", "link_23_cyl", [0.3, 1.0]),  # planar
+        ("double_pendulum_continuous.urdf", "base_link", "link2", [0.3, -2.0]),
+        ("kortex_gen3_lite.urdf", "BASE", "DUMMY", [0.4, 0.3, 1.9, -0.4, 1.57, 0.11]),
+    ],
+    ids=["ur5", "planar", "pendulum", "gen3_lite"],
+)
+def test_default_frames_are_the_root_and_the_end_of_the_chain(
+    client: TestClient, file: str, base: str, tip: str, q: list[float]
+) -> None:
+    robot = frameless(file)
+    d = ok(client, "/v1/robots/describe", {"robot": robot})
+    assert (d["base_frame"], d["tip_frame"]) == (base, tip)
+    named = {**robot, "base_frame": base, "tip_frame": tip}
+    assert ok(client, "/v1/robots/describe", {"robot": named})["name"] == d["name"]
+    # FK of the frameless robot: pinocchio's tip in its base, from the untouched URDF
+    model, data = reference_model(robot["urdf"])
+    pin.framesForwardKinematics(model, data, reference_q(model, d["joint_names"], np.array(q)))
+    expected = data.oMf[body_frame(model, base)].actInv(data.oMf[body_frame(model, tip)])
+    fk = ok(client, "/v1/fk", {"robot": robot, "positions": q})
+    T = pose_matrix(fk["pose"])
+    if d["task_space"] == "pose":
+        np.testing.assert_allclose(T, expected.homogeneous, atol=1e-9)
+    else:
+        np.testing.assert_allclose(T[:2, 3], expected.translation[:2], atol=1e-9)
+    # IK, trajectories, program and distance take it too
+    one = ok(client, "/v1/ik", {"robot": robot, "pose": fk["pose"], "seed": q})
+    again = ok(client, "/v1/fk", {"robot": robot, "positions": one["positions"]})
+    np.testing.assert_allclose(again["pose"]["position"], fk["pose"]["position"], atol=1e-8)
+    lo, hi = np.array(d["limits"]["position"]).T
+    q1 = np.clip(np.array(q) + 0.1, lo, hi).tolist()
+    start, goal = {"positions": q}, {"positions": q1}
+    plan = ok(
+        client,
+        "/v1/trajectories/joint",
+        {"robot": robot, "profile": "quintic", "start": start, "goal": goal},
+    )
+    np.testing.assert_allclose(plan["points"][-1]["positions"], q1, atol=1e-9)
+    segments = [{"type": "ptp", "goal": goal}, {"type": "ptp", "goal": start}]
+    program = {"robot": robot, "start": start, "segments": segments}
+    np.testing.assert_allclose(
+        ok(client, "/v1/trajectories/program", program)["points"][-1]["positions"], q, atol=1e-9
+    )
+    assert "pairs" in ok(client, "/v1/distance", {"robot": robot, "positions": q})
+
+
+def test_a_hand_with_fingers_has_no_default_tip_at_any_endpoint(client: TestClient) -> None:
+    panda = frameless("panda.urdf")
+    q = ARMS["panda_hand"][3]
+    tcp = {"position": [0.4, 0.0, 0.4], "orientation": [1.0, 0.0, 0.0, 0.0]}
+    task = {"robot": panda, "start": {"positions": q}, "goal": {"pose": tcp}}
+    for url, body in (
+        ("/v1/robots/describe", {"robot": panda}),
+        ("/v1/fk", {"robot": panda, "positions": q}),
+        ("/v1/ik", {"robot": panda, "pose": tcp}),
+        ("/v1/distance", {"robot": panda, "positions": q}),
+        (
+            "/v1/trajectories/joint",
+            {
+                "robot": panda,
+                "profile": "quintic",
+                "start": {"positions": q},
+                "goal": {"positions": q},
+            },
+        ),
+        ("/v1/trajectories/cartesian", {**task, "method": "sampled"}),
+        ("/v1/compare", {"task": task, "methods": ["sampled"]}),
+    ):
+        r = client.post(url, json=body)
+        assert r.status_code == 422, f"{url}: {r.text[:300]}"
+        problem = r.json()
+        assert problem["code"] == "invalid_urdf", f"{url}: {problem}"
+        assert problem["errors"][0]["loc"][-2:] == ["robot", "tip_frame"], url
+        assert {"panda_leftfinger", "panda_rightfinger"} <= set(problem["candidates"])
+        assert "panda_leftfinger" in problem["detail"] and "name tip_frame" in problem["detail"]
+    # naming the tip (and leaving the base out) works: the base is the root, panda_link0
+    d = ok(client, "/v1/robots/describe", {"robot": {**panda, "tip_frame": "panda_hand"}})
+    assert d["base_frame"] == "panda_link0" and d["dof"] == 7
+
+
+def test_one_ik_solution_of_a_numeric_8_joint_arm_from_home(client: TestClient) -> None:
+    # the Panda to its left finger (7 revolute joints and the prismatic finger: numeric IK, joint 7
+    # and the finger held at home's values at first): reachable poses the first search misses
+    robot = {**inline("panda_hand"), "tip_frame": "panda_leftfinger"}
+    d = ok(client, "/v1/robots/describe", {"robot": robot})
+    assert d["ik"]["solver"] == "numeric" and d["dof"] == 8
+    lo, hi = np.array(d["limits"]["position"]).T
+    model, data = reference_model(robot["urdf"])
+    base, tip = body_frame(model, "panda_link0"), body_frame(model, "panda_leftfinger")
+    missed = 0
+    for q in np.random.default_rng(2).uniform(lo, hi, (6, 8)):
+        pose = ok(client, "/v1/fk", {"robot": robot, "positions": q.tolist()})["pose"]
+        every = client.post("/v1/ik", json={"robot": robot, "pose": pose, "all": True})
+        missed += every.status_code == 422
+        x = np.array(ok(client, "/v1/ik", {"robot": robot, "pose": pose})["positions"])
+        assert np.all(x >= lo) and np.all(x <= hi)
+        pin.framesForwardKinematics(model, data, reference_q(model, d["joint_names"], x))
+        reached = data.oMf[base].actInv(data.oMf[tip]).homogeneous
+        np.testing.assert_allclose(reached, pose_matrix(pose), atol=1e-8)
+    assert missed > 0  # all: true holds joint 7 and the finger: some poses have no solution there
+
+
 SWEEP: dict[str, tuple[str, str, str]] = {
     **{name: ARMS[name][:3] for name in ARMS},
     "ur5_world_ee": ("ur5_robot.urdf", "world", "ee_link"),

@@ -13,6 +13,7 @@ from core.geometry.so3 import quat_to_matrix
 from robots import registry
 from service.app import create_app
 from service.routes import robots as robots_route
+from service.settings import Settings
 from tests.robots.inline_urdfs import joint, robot
 
 
@@ -360,6 +361,29 @@ def test_fixed_joints(client: TestClient) -> None:
         "validation",
     )
     assert err["redundant_joints"] == []
+
+
+def test_one_solution_releases_the_held_joint_before_unreachable(client: TestClient) -> None:
+    # a reachable pose (FK of q inside the limits) with no solution at joint 7 = home's value:
+    # all: true holds it there (none: 422), all: false looks further and answers one
+    panda = registry.get("panda")
+    lo, hi = panda.position_limits.T
+    qs = np.random.default_rng(5).uniform(lo, hi, (40, 7))
+    q = next(q for q in qs if not len(panda.ik_all(panda.fk(q))))
+    pose = pose_of("panda", q)
+    held = problem(
+        client.post("/v1/robots/panda/ik", json={"pose": pose, "all": True}), 422, "unreachable"
+    )  # it was 422 joint_limit "reachable only with joint ... outside its limits": untrue
+    assert held["redundant_joints"] == ["panda_joint7"] and "all: false" in held["detail"]
+    one = client.post("/v1/robots/panda/ik", json={"pose": pose})
+    assert one.status_code == 200, one.text
+    x = np.array(one.json()["positions"])
+    assert np.all(x >= lo) and np.all(x <= hi) and one.json()["solver"] == "analytic"
+    np.testing.assert_allclose(panda.fk(x), panda.fk(q), atol=1e-9)
+    # the second effort is bounded by the request's deadline: with none left it does not run
+    with TestClient(create_app(Settings(time_budget_s=1e-9))) as spent:
+        r = spent.post("/v1/robots/panda/ik", json={"pose": pose})
+    assert r.status_code == 422 and r.json()["code"] == "unreachable", r.text
 
 
 def test_unreachable_names_the_reach(client: TestClient) -> None:
