@@ -30,6 +30,10 @@ The nominal duration T is split into whole ticks of ``dt = T / ceil(T / control_
      keeps the DLS rates of the feedforward twist within ``TIME_SCALE_MARGIN`` of the limits (online
      time scaling, as in Dahl & Nielsen, IEEE Trans. Robot. Autom. 6(5), 1990). ``resolved_rate``
      keeps ``kappa = 1``: it is the classic reference.
+   Without a ``duration`` the rates are then scaled down, where needed, so the tool's own speed
+   ``|J_p qd|`` (and ``|J_w qd|``) stays within the task's speed limits (``steps.speed_scale``): the
+   feedforward alone keeps them, but the feedback term ``K e`` added up to 0.6 % (the tool lags
+   the setpoint while it accelerates and then made the lag up at full speed).
 4. ``q += qd dt`` (explicit Euler; the returned positions lie on this piecewise-linear path).
 
 When the path clock has reached the end the setpoint rests at the goal and the run ends once the pose
@@ -69,6 +73,7 @@ from core.cartesian.rate.steps import (
     pose_error,
     singular_values,
     smallest_singular_value,
+    speed_scale,
     stuck,
     svd,
     time_scale,
@@ -199,6 +204,10 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     p_rows = rows[rows < 3]
     all_rows, all_p = len(rows) == 6, len(p_rows) == 3
     gain = min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)
+    lin_cap, ang_cap = task.speeds()  # the tool's speed limits (none with a duration)
+    lin_cap = math.inf if lin_cap is None else float(lin_cap)
+    ang_cap = math.inf if ang_cap is None or not pose_task else float(ang_cap)
+    capped, p_list = lin_cap < math.inf or ang_cap < math.inf, p_rows.tolist()
     goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
     capacity = 0 if extra_rows is None else int(extra_rows.capacity)
     qp = DlsQpSolver(robot.dof, extra_rows=capacity) if dls and solver == "osqp" else None
@@ -318,6 +327,10 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
                     step.fallback,
                 )
             fallbacks += fell_back
+            if capped:  # the tool's speed limits hold for the feedback term too
+                c = speed_scale(J_now, rates[k], p_list, lin_cap, ang_cap)
+                if c < 1.0:
+                    rates[k] *= c
             np.multiply(rates[k], dt, out=nxt)
             np.add(q, nxt, out=nxt)
             if not clear:  # (a clear tick's q + qd dt is more than v_max dt inside the limits)
@@ -332,6 +345,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             if failure is not None:
                 n = k + 1
                 break
+            if capped:
+                qd = qd * speed_scale(J_now, qd, p_list, lin_cap, ang_cap)
             rates[k] = qd
             np.multiply(qd, dt, out=nxt)
             np.add(q, nxt, out=nxt)

@@ -11,6 +11,10 @@
   a uniform deceleration of the path clock whose rate ``a`` keeps ``|qd_i| a <= a_max_i`` for the
   prefix's peak rates (the path's own curvature is not counted). ``fraction`` is the line parameter
   of the closest point to the tool's final pose.
+- Obstacles (``resolved_rate_dls`` with an environment): where the velocity dampers pushed the tool
+  out of the tolerance band because the line runs through an obstacle, the answer is that
+  ``Collision`` (``core.cartesian.rate.obstacle``), as every other method gives it; a partial plan
+  is then the run without dampers (on the line) up to its last clear tick, braked to rest.
 - Checks and measurements: ``core.cartesian.check.finish`` (limits, dense deviation, singular values),
   then the controller's own figures in ``diagnostics`` and what a client should know in ``warnings``.
 """
@@ -25,6 +29,7 @@ import numpy as np
 from core.cartesian.check import finish
 from core.cartesian.partial import partial_warning
 from core.cartesian.rate.control import GOAL_FRACTION, RateRun
+from core.cartesian.rate.obstacle import blocking_contact
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -41,6 +46,13 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
     line = task.line()
     if run.failure is not None:
         run = replace(run, failure=controller_exit(task.robot, line, run.failure, task.deadline))
+    detour = None
+    if method == "resolved_rate_dls" and task.clearance is not None:
+        detour = blocking_contact(task, line, run, _along_line(task, line, run.positions)[1])
+        if detour is not None and not task.allow_violations:
+            # the answer of every method: the collision; a partial plan is the run on the line
+            # (without dampers) up to its last clear tick
+            run = replace(detour.free, failure=detour.failure)
     if run.failure is not None and not task.allow_partial:
         raise run.failure
     last = len(run.s) - 1
@@ -49,14 +61,19 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
     else:
         closest, first_out = _along_line(task, line, run.positions)
         m = last
-        if method == "resolved_rate_dls":  # up to where the tool first left the tolerance band
+        if detour is not None and run.failure is detour.failure:
+            m = max(1, min(detour.clear, first_out - 1))
+        elif method == "resolved_rate_dls":  # up to where the tool first left the tolerance band
             m = int(np.argmax(closest[: max(first_out, 1)]))
         fraction = min(float(closest[m]), float(np.nextafter(1.0, 0.0)))
     trajectory, s_points = _sample(task, run, m, brake=run.failure is not None)
     result = CartesianResult(trajectory=trajectory, fraction=fraction, failure=run.failure)
     result = finish(task, result, s_points)
     result = replace(result, diagnostics=_diagnostics(task, run, method, result))
-    return replace(result, warnings=tuple(_warnings(task, run, result)))
+    warnings = _warnings(task, run, result)
+    if detour is not None and run.failure is None:  # allow_violations: the detour is accepted
+        warnings.append(f"the tool left the line to keep the clearance: {detour.failure.detail}")
+    return replace(result, warnings=tuple(warnings))
 
 
 def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.ndarray, int]:

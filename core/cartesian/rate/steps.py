@@ -193,3 +193,24 @@ def stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningErr
     return NoConvergence(
         f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
     )
+
+
+def speed_scale(
+    J: np.ndarray, qd: np.ndarray, linear_rows: list[int], linear: float, angular: float
+) -> float:
+    """Factor in (0, 1] that keeps the tool's speeds within the task's limits: the linear speed
+    ``|J_p qd|`` (the Jacobian's ``linear_rows``) within ``linear`` [m/s] and the angular speed
+    ``|J_w qd|`` (rows 3-5, when ``angular`` is finite) within ``angular`` [rad/s]. Scaling the
+    rates by it keeps them inside their bounds (which contain 0) and the extra rows ``a . qd >= b``
+    (``b <= 0``)."""
+    scale = 1.0
+    v = J[linear_rows].dot(qd)
+    speed = math.sqrt(float(v.dot(v)))
+    if speed > linear:
+        scale = linear / speed
+    if angular < math.inf:
+        w = J[3:6].dot(qd)
+        turn = math.sqrt(float(w.dot(w)))
+        if turn * scale > angular:
+            scale = angular / turn
+    return scale
