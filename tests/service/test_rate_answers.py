@@ -151,3 +151,28 @@ def test_rate_methods_keep_max_linear_speed(client: TestClient, method: str) -> 
         speeds.append(np.linalg.norm(tip(UR5, q + h * qd)[:3, 3] - tip(UR5, q - h * qd)[:3, 3]))
     top = max(speeds) / (2 * h)
     assert 0.05 * 0.99 <= top <= 0.05 * (1 + 1e-6)
+
+
+@pytest.mark.parametrize("method", RATE_METHODS)
+@pytest.mark.parametrize("period", [0.001, 0.002, 0.005])
+def test_the_run_ends_on_a_whole_control_tick(
+    client: TestClient, method: str, period: float
+) -> None:
+    """A 20 cm line at the default 0.25 m/s: the profile lasts 1.0500001601 s (its grid), and the
+    controller stretched its tick to 0.99905 ms to end there, 1.6e-7 s past the last 10 ms sample.
+    Now it ticks at the requested ``control_period`` (reported as such) and the trajectory ends on
+    a whole tick at or after the profile's end, so every interval of the 10 ms grid is a whole
+    number of ticks (a period dividing 10 ms): the last one too."""
+    body = lin(UR5, [0.2, 0.0, 0.0], name="ur5", method=method, control_period=period)
+    answer = client.post("/v1/trajectories/cartesian", json=body)
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    t = np.array([p["time_from_start"] for p in doc["points"]])
+    diag = doc["diagnostics"]
+    assert diag["control_period"] == period
+    ticks = t[-1] / period
+    assert ticks == pytest.approx(round(ticks), abs=1e-9)
+    assert diag["nominal_duration"] <= t[-1]
+    gaps = np.diff(t)
+    assert gaps[-1] >= period - 1e-12
+    np.testing.assert_allclose(gaps / period, np.round(gaps / period), rtol=0, atol=1e-9)

@@ -1,8 +1,10 @@
 """Resolved-rate control along the straight line: pseudo-inverse (``resolved_rate``) and damped
 least squares as a QP (``resolved_rate_dls``), simulated tick by tick.
 
-The nominal duration T is split into whole ticks of ``dt = T / ceil(T / control_period)`` (so
-``dt <= control_period`` and the nominal end falls on a tick). At each tick:
+The controller ticks at ``dt = control_period`` exactly, so the run (and the returned trajectory)
+ends on a whole tick ``k dt``, on the sampling grid's own steps, rather than at the profile's
+duration T (1.0500001601 s for a 20 cm line at 0.25 m/s: 1.6e-7 s past a 10 ms sample); the
+setpoint rests at the goal from T on, ``ceil(T / dt)`` ticks make the nominal run. At each tick:
 
 1. The setpoint: pose on the path at ``s(tau)`` and twist ``path.derivative(s) s'(tau)``, where ``s(t)`` is
    the nominal profile every Cartesian method starts from (quintic for a fixed duration, else the
@@ -119,7 +121,8 @@ class RateRun:
 
     Attributes:
         dt: Control period [s].
-        nominal_ticks: Ticks in the nominal duration.
+        nominal_ticks: Ticks in the nominal duration (the first tick at or after its end).
+        nominal_duration: Duration of the nominal profile s(t) [s].
         positions: Joint positions at each tick ``(n, dof)``.
         rates: Joint rates commanded from each tick on ``(n, dof)``; the last row is zero.
         s: Path parameter of the setpoint at each tick ``(n,)``.
@@ -137,6 +140,7 @@ class RateRun:
 
     dt: float
     nominal_ticks: int
+    nominal_duration: float
     positions: np.ndarray
     rates: np.ndarray
     s: np.ndarray
@@ -192,7 +196,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     line = validated_line(task)
     timing = nominal_timing(task, line)
     nominal = max(1, math.ceil(timing.duration / period - 1e-9))
-    dt = timing.duration / nominal
+    dt = period
     total = nominal + math.ceil(max(SETTLE_TIME, SETTLE_FRACTION * timing.duration) / dt)
     if total > MAX_TICKS:
         raise TooLarge(
@@ -364,6 +368,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     return RateRun(
         dt=dt,
         nominal_ticks=nominal,
+        nominal_duration=float(timing.duration),
         positions=positions[:n],
         rates=rates[:n],
         s=s_log[:n],

@@ -135,7 +135,7 @@ def _diagnostics(
 ) -> dict[str, Any]:
     """The controller's figures (JSON-serializable)."""
     steps = len(run.sigma)
-    nominal = run.nominal_ticks * run.dt
+    nominal = run.nominal_duration
     diag: dict[str, Any] = {
         "control_period": run.dt,
         "control_ticks": len(run.s),
