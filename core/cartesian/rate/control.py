@@ -6,7 +6,8 @@ ends on a whole tick ``k dt``, on the sampling grid's own steps, rather than at 
 duration T (1.0500001601 s for a 20 cm line at 0.25 m/s: 1.6e-7 s past a 10 ms sample); the
 setpoint rests at the goal from T on, ``ceil(T / dt)`` ticks make the nominal run. At each tick:
 
-1. The setpoint: pose on the path at ``s(tau)`` and twist ``path.derivative(s) s'(tau)``, where ``s(t)`` is
+1. The setpoint: pose on the path at ``s(tau)`` and twist ``path.derivative(s) s'``, with ``s'`` the mean
+   rate of ``s`` over the tick (``setpoint.tick_table``), where ``s(t)`` is
    the nominal profile every Cartesian method starts from (quintic for a fixed duration, else the
    speed-limited trapezoid of ``CartesianTask.speeds()``) without joint-rate caps (meeting the joint
    limits is the controller's business) and ``tau`` is the path clock (below).
