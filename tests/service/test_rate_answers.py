@@ -176,3 +176,33 @@ def test_the_run_ends_on_a_whole_control_tick(
     gaps = np.diff(t)
     assert gaps[-1] >= period - 1e-12
     np.testing.assert_allclose(gaps / period, np.round(gaps / period), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("method", RATE_METHODS)
+@pytest.mark.parametrize("dx", [0.07, -0.07])
+def test_puma_short_line_slows_for_joint_accelerations(
+    client: TestClient, method: str, dx: float
+) -> None:
+    """The PUMA 560's 7 cm line along x from home at the default tool limits: the nominal clock asks
+    joint 3 for 1.7-1.8 times its 2 rad/s^2 (was 422 joint_rate_limit; the DLS time scaling holds
+    velocities only). Now the clock slows as ``sampled`` does: 200, every joint within its
+    velocity and acceleration limits (central differences of the returned velocities), the tool on
+    the line (pinocchio FK), at the goal, and about as long as ``sampled``'s timing of the line."""
+    body = lin(PUMA, [dx, 0.0, 0.0], name="puma560", method=method)
+    answer = client.post("/v1/trajectories/cartesian", json=body)
+    assert answer.status_code == 200, answer.text
+    points = answer.json()["points"]
+    t = np.array([p["time_from_start"] for p in points])
+    q = np.array([p["positions"] for p in points])
+    v = np.array([p["velocities"] for p in points])
+    assert np.all(np.abs(v) <= PUMA.velocity_limits * (1 + 1e-6))
+    acc = np.abs(np.gradient(v, t, axis=0)) / np.asarray(PUMA.acceleration_limits)
+    assert acc.max() <= 1 + 1e-6
+    assert acc.max() >= 0.5  # and the limits are what shapes it
+    p0 = PUMA.fk(PUMA.home)[:3, 3]
+    p1 = p0 + np.array([dx, 0.0, 0.0])
+    assert max(point_segment(tip(PUMA, x)[:3, 3], p0, p1) for x in q) <= 1e-3
+    np.testing.assert_allclose(tip(PUMA, q[-1])[:3, 3], p1, atol=1e-4)
+    sampled = client.post("/v1/trajectories/cartesian", json={**body, "method": "sampled"})
+    assert sampled.status_code == 200
+    assert t[-1] == pytest.approx(sampled.json()["points"][-1]["time_from_start"], rel=0.05)

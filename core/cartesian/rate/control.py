@@ -1,16 +1,15 @@
 """Resolved-rate control along the straight line: pseudo-inverse (``resolved_rate``) and damped
 least squares as a QP (``resolved_rate_dls``), simulated tick by tick.
 
-The controller ticks at ``dt = control_period`` exactly, so the run (and the returned trajectory)
-ends on a whole tick ``k dt``, on the sampling grid's own steps, rather than at the profile's
-duration T (1.0500001601 s for a 20 cm line at 0.25 m/s: 1.6e-7 s past a 10 ms sample); the
-setpoint rests at the goal from T on, ``ceil(T / dt)`` ticks make the nominal run. At each tick:
+Ticks of ``dt = control_period`` exactly: a run ends on a whole tick, not at the profile's duration
+T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nominal run). Each tick:
 
-1. The setpoint: pose on the path at ``s(tau)`` and twist ``path.derivative(s) s'``, with ``s'`` the mean
-   rate of ``s`` over the tick (``setpoint.tick_table``), where ``s(t)`` is
-   the nominal profile every Cartesian method starts from (quintic for a fixed duration, else the
-   speed-limited trapezoid of ``CartesianTask.speeds()``) without joint-rate caps (meeting the joint
-   limits is the controller's business) and ``tau`` is the path clock (below).
+1. The setpoint: pose on the path at ``s(tau)``, twist ``path.derivative(s) s'`` (``s'``: the mean
+   rate of ``s`` over the tick, ``setpoint.tick_table``), where ``s(t)`` is the nominal profile
+   every Cartesian method starts from (quintic for a fixed duration, else the speed-limited
+   trapezoid of ``CartesianTask.speeds()``) without joint caps (the controller's business; where
+   no duration is given, ``simulate`` re-times it for the joint accelerations:
+   ``core.cartesian.rate.retime``) and ``tau`` is the path clock (below).
 2. The task twist ``V = twist + K e`` with ``e = [p_d - p, log(R_d R^T)]``: the position error and
    the rotation vector of the orientation error, both in the base frame, which are the coordinates
    of the Jacobian's rows (tip-origin linear velocity, angular velocity, base frame); the SE3 log
@@ -33,10 +32,8 @@ setpoint rests at the goal from T on, ``ceil(T / dt)`` ticks make the nominal ru
      keeps the DLS rates of the feedforward twist within ``TIME_SCALE_MARGIN`` of the limits (online
      time scaling, as in Dahl & Nielsen, IEEE Trans. Robot. Autom. 6(5), 1990). ``resolved_rate``
      keeps ``kappa = 1``: it is the classic reference.
-   Without a ``duration`` the rates are then scaled down, where needed, so the tool's own speed
-   ``|J_p qd|`` (and ``|J_w qd|``) stays within the task's speed limits (``steps.speed_scale``): the
-   feedforward alone keeps them, but the feedback term ``K e`` added up to 0.6 % (the tool lags
-   the setpoint while it accelerates and then made the lag up at full speed).
+   Without a ``duration`` the rates are scaled down where the tool's own speeds ``|J_p qd|``,
+   ``|J_w qd|`` would exceed the task's limits (the feedback term's share: ``steps.speed_scale``).
 4. ``q += qd dt`` (explicit Euler; the returned positions lie on this piecewise-linear path).
 
 When the path clock has reached the end the setpoint rests at the goal and the run ends once the pose
@@ -66,6 +63,7 @@ from core.cartesian.rate.qp import (
     damping,
     solve_dls_qp,
 )
+from core.cartesian.rate.retime import ACCELERATION_TRIGGER, joint_timing, peak_acceleration_ratio
 from core.cartesian.rate.setpoint import LineSetpoint, setpoint_for
 from core.cartesian.rate.steps import (
     TIME_SCALE_MARGIN,
@@ -164,7 +162,21 @@ def nominal_timing(task: CartesianTask, line: Path) -> Profile:
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
-    """Run the controller of ``method`` along the task's line (see the module docstring).
+    """Run the controller of ``method`` along the task's line (see the module docstring); where
+    no ``duration`` is given and the run's joints accelerate over ``ACCELERATION_TRIGGER`` of their
+    limits, run it again on the clock ``core.cartesian.rate.retime.joint_timing`` slows for them."""
+    run = _simulate(task, method, extra_rows)
+    limits = task.robot.acceleration_limits
+    if run.failure is None and task.duration is None:
+        if peak_acceleration_ratio(run.rates, run.dt, limits) > ACCELERATION_TRIGGER:
+            slower = joint_timing(task, validated_line(task), run.s, run.positions)
+            if slower is not None:
+                run = _simulate(task, method, extra_rows, slower)
+    return run
+
+
+def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile | None = None):
+    """One run of the controller of ``method`` on the clock ``timing`` (default ``nominal_timing``).
 
     ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.qp.ExtraRows``:
     obstacle avoidance); OSQP only, and not with ``resolved_rate``. Planning failures end the run
@@ -195,7 +207,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             "extra inequality rows need resolved_rate_dls with osqp", field=("method",)
         )
     line = validated_line(task)
-    timing = nominal_timing(task, line)
+    timing = nominal_timing(task, line) if timing is None else timing
     nominal = max(1, math.ceil(timing.duration / period - 1e-9))
     dt = period
     total = nominal + math.ceil(max(SETTLE_TIME, SETTLE_FRACTION * timing.duration) / dt)
