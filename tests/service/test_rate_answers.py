@@ -102,7 +102,7 @@ def test_dls_with_a_ball_on_the_line_is_a_collision_where_sampled_says(client) -
     assert dls["s"] == pytest.approx(s_star, abs=0.01)
     assert dls["s"] == pytest.approx(sampled["s"], abs=0.01)
     assert dls["distance"] <= 1e-6 and 0.0 < dls["time_from_start"]
-    assert "sample" not in dls["detail"]
+    assert "give more samples" not in dls["detail"]
 
 
 def test_dls_partial_with_a_ball_returns_the_clear_prefix_on_the_line(client) -> None:

@@ -15,6 +15,8 @@
   out of the tolerance band because the line runs through an obstacle, the answer is that
   ``Collision`` (``core.cartesian.rate.obstacle``), as every other method gives it; a partial plan
   is then the run without dampers (on the line) up to its last clear tick, braked to rest.
+- Ticks off the line (damping near a singularity, active rate bounds, lag): 422 ``Infeasible``
+  naming the controller as the cause (``_strayed``), not the sampling, unless ``allow_violations``.
 - Checks and measurements: ``core.cartesian.check.finish`` (limits, dense deviation, singular values),
   then the controller's own figures in ``diagnostics`` and what a client should know in ``warnings``.
 """
@@ -26,13 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from core.cartesian.check import finish
+from core.cartesian.check import VIOLATION_SLACK, finish
 from core.cartesian.partial import partial_warning
 from core.cartesian.rate.control import GOAL_FRACTION, RateRun
 from core.cartesian.rate.obstacle import blocking_contact
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
+from core.errors import Infeasible
 from core.trajectory import Trajectory, sample_times
 
 GOAL_CONFIGURATION_WARNING = 1e-3
@@ -69,6 +72,10 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
     trajectory, s_points = _sample(task, run, m, brake=run.failure is not None)
     result = CartesianResult(trajectory=trajectory, fraction=fraction, failure=run.failure)
     result = finish(task, result, s_points)
+    if run.failure is None and not (task.allow_partial or task.allow_violations):
+        strayed = _strayed(task, line, run)  # (the 200 rule's answer, naming the cause)
+        if strayed is not None:
+            raise strayed
     result = replace(result, diagnostics=_diagnostics(task, run, method, result))
     warnings = _warnings(task, run, result)
     if detour is not None and run.failure is None:  # allow_violations: the detour is accepted
@@ -94,6 +101,38 @@ def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.nd
         if out.size and first_out == len(positions):
             first_out = i + int(out[0])
     return np.concatenate(s), first_out
+
+
+def _strayed(task: CartesianTask, line, run: RateRun) -> Infeasible | None:
+    """``Infeasible`` where the controller's own ticks leave the tolerance band (the 200 rule's
+    answer, but naming the controller, not the sampling, as the cause), else None. Skipped when
+    every tick is within the tolerances of its setpoint (a point of the line)."""
+    tol_p, tol_o = task.position_tolerance, task.orientation_tolerance
+    if run.tracking_position.max() <= tol_p and run.tracking_orientation.max() <= tol_o:
+        return None
+    dev = line.deviation(task.robot.fk_many(run.positions), tol_p, tol_o)
+    worst = np.maximum(dev.position / tol_p, dev.orientation / tol_o)
+    k = int(np.argmax(worst))
+    if worst[k] <= 1.0 + VIOLATION_SLACK:
+        return None
+    step = min(k, len(run.sigma) - 1)
+    if step >= 0 and run.damping[step] > 0.0:
+        why = f"damped near a singularity (smallest singular value {run.sigma[step]:.2e})"
+    elif step >= 0 and run.active[step]:
+        why = "its joint rate bounds (velocity or position limits) were active"
+    else:
+        why = "it lagged behind the setpoint"
+    return Infeasible(
+        f"the controller's own ticks leave the line by up to {dev.position.max():.3g} m / "
+        f"{dev.orientation.max():.3g} rad (tolerance {tol_p:g} m / {tol_o:g} rad) near "
+        f"s={dev.s[k]:.4f}, where {why}: more samples would not help; ask for a longer duration "
+        "or lower tool speeds, or set allow_violations to accept it",
+        s=float(dev.s[k]),
+        extra={
+            "max_position_deviation": float(dev.position.max()),
+            "max_orientation_deviation": float(dev.orientation.max()),
+        },
+    )
 
 
 def _sample(
