@@ -224,7 +224,7 @@ def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile
     lin_cap, ang_cap = task.speeds()  # the tool's speed limits (none with a duration)
     lin_cap = math.inf if lin_cap is None else float(lin_cap)
     ang_cap = math.inf if ang_cap is None or not pose_task else float(ang_cap)
-    capped, p_list = lin_cap < math.inf or ang_cap < math.inf, p_rows.tolist()
+    capped, p_list = lin_cap < math.inf or ang_cap < math.inf, len(p_rows)  # (rows 0..2 or 0..1)
     goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
     capacity = 0 if extra_rows is None else int(extra_rows.capacity)
     qp = DlsQpSolver(robot.dof, extra_rows=capacity) if dls and solver == "osqp" else None
