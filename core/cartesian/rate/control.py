@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -135,6 +135,7 @@ class RateRun:
         tracking_position: Distance [m] from the setpoint at each tick ``(n,)``.
         tracking_orientation: Angle [rad] from the setpoint at each tick ``(n,)``.
         failure: Why the run stopped short of the goal, or None.
+        timing_warnings: Where the clock was slowed for the joint limits (``retime``).
     """
 
     dt: float
@@ -153,6 +154,7 @@ class RateRun:
     tracking_position: np.ndarray
     tracking_orientation: np.ndarray
     failure: PlanningError | None
+    timing_warnings: tuple[str, ...] = ()
 
 
 def nominal_timing(task: CartesianTask, line: Path) -> Profile:
@@ -165,13 +167,13 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     """Run the controller of ``method`` along the task's line (see the module docstring); where
     no ``duration`` is given and the run's joints accelerate over ``ACCELERATION_TRIGGER`` of their
     limits, run it again on the clock ``core.cartesian.rate.retime.joint_timing`` slows for them."""
-    run = _simulate(task, method, extra_rows)
-    limits = task.robot.acceleration_limits
+    run, limits = _simulate(task, method, extra_rows), task.robot.acceleration_limits
     if run.failure is None and task.duration is None:
         if peak_acceleration_ratio(run.rates, run.dt, limits) > ACCELERATION_TRIGGER:
             slower = joint_timing(task, validated_line(task), run.s, run.positions)
             if slower is not None:
-                run = _simulate(task, method, extra_rows, slower)
+                run = _simulate(task, method, extra_rows, slower.profile)
+                run = replace(run, timing_warnings=slower.warnings)
     return run
 
 

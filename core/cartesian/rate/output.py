@@ -210,7 +210,7 @@ def _diagnostics(
 
 def _warnings(task: CartesianTask, run: RateRun, result: CartesianResult) -> list[str]:
     """What a client should know: active limits, lag, damping, accepted deviation."""
-    out: list[str] = []
+    out: list[str] = list(run.timing_warnings)
     diag = result.diagnostics
     if diag["active_limit_steps"]:
         out.append(

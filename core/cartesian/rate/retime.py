@@ -13,10 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from core.cartesian.task import CartesianTask
-from core.cartesian.timing import time_path
+from core.cartesian.timing import PathTiming, time_path
 from core.errors import PlanningError
 from core.path import Path
-from core.timing import Profile
 
 ACCELERATION_TRIGGER = 0.95
 """Re-time when the run's joint accelerations reach this share of their limits (measured over
@@ -41,8 +40,8 @@ def peak_acceleration_ratio(rates: np.ndarray, dt: float, limits: np.ndarray) ->
 
 def joint_timing(
     task: CartesianTask, line: Path, s: np.ndarray, positions: np.ndarray
-) -> Profile | None:
-    """s(t) under the tool limits and the joints' velocity and acceleration limits along the
+) -> PathTiming | None:
+    """s(t) (and the warnings that say where it slows) under the tool limits and the joints' velocity and acceleration limits along the
     joint path ``positions`` ``(n, dof)`` the controller took with setpoint ``s`` ``(n,)``
     (``time_path`` on ``GRID`` points: q(s) interpolated per joint, dq/ds and d2q/ds2 by
     differences), or None where no new timing can be had (a duration is given, the path did not
@@ -59,6 +58,6 @@ def joint_timing(
     dq = np.gradient(q, grid, axis=0)
     d2q = np.gradient(dq, grid, axis=0)
     try:
-        return time_path(task, line, grid, dq, d2q).profile
+        return time_path(task, line, grid, dq, d2q)
     except PlanningError:
         return None

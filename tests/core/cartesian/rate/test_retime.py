@@ -40,5 +40,6 @@ def test_no_new_timing_with_a_duration_or_a_short_run() -> None:
     assert joint_timing(task, line, s, q) is None
     free = CartesianTask(robot, q0, xy(1.0, 1.0), max_linear_speed=0.1)
     assert joint_timing(free, line, s * 0.5, q) is None  # did not reach s = 1
-    profile = joint_timing(free, line, s, q)
-    assert profile is not None and float(profile(profile.duration)) == pytest.approx(1.0)
+    timing = joint_timing(free, line, s, q)
+    assert timing is not None and timing.end == 1.0
+    assert float(timing.profile(timing.duration)) == pytest.approx(1.0)
