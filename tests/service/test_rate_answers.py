@@ -9,6 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from fastapi.testclient import TestClient
+from scipy.spatial.transform import Rotation
 
 from robots import registry
 from robots.geometry import ROBOT_GEOMETRY
@@ -206,3 +207,27 @@ def test_puma_short_line_slows_for_joint_accelerations(
     sampled = client.post("/v1/trajectories/cartesian", json={**body, "method": "sampled"})
     assert sampled.status_code == 200
     assert t[-1] == pytest.approx(sampled.json()["points"][-1]["time_from_start"], rel=0.05)
+
+
+@pytest.mark.parametrize("method", RATE_METHODS)
+def test_rate_methods_keep_max_angular_speed(client: TestClient, method: str) -> None:
+    """The same for the tool's angular speed (the rotation between pinocchio FK poses a step
+    before and after each returned point): 0.2007 rad/s for a 0.2 rad/s limit before."""
+    T = UR5.fk(UR5.home)
+    T[:3, 3] += [0.05, 0.0, 0.0]
+    T[:3, :3] = Rotation.from_rotvec([0.2, 0.3, -0.3]).as_matrix() @ T[:3, :3]
+    body = {
+        "robot": "ur5",
+        "method": method,
+        "start": {"positions": UR5.home.tolist()},
+        "goal": {"pose": Pose.from_matrix(T).model_dump()},
+        "max_angular_speed": 0.2,
+    }
+    answer = client.post("/v1/trajectories/cartesian", json=body)
+    assert answer.status_code == 200, answer.text
+    h, speeds = 1e-6, []
+    for p in answer.json()["points"]:
+        q, qd = np.asarray(p["positions"]), np.asarray(p["velocities"])
+        A, B = tip(UR5, q + h * qd)[:3, :3], tip(UR5, q - h * qd)[:3, :3]
+        speeds.append(np.linalg.norm(Rotation.from_matrix(A @ B.T).as_rotvec()) / (2 * h))
+    assert 0.2 * 0.99 <= max(speeds) <= 0.2 * (1 + 1e-6)
