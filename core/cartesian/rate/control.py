@@ -1,13 +1,15 @@
 """Resolved-rate control along the straight line: pseudo-inverse (``resolved_rate``) and damped
 least squares as a QP (``resolved_rate_dls``), simulated tick by tick.
 
-The nominal duration T is split into whole ticks of ``dt = T / ceil(T / control_period)`` (so
-``dt <= control_period`` and the nominal end falls on a tick). At each tick:
+Ticks of ``dt = control_period`` exactly: a run ends on a whole tick, not at the profile's duration
+T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nominal run). Each tick:
 
-1. The setpoint: pose on the path at ``s(tau)`` and twist ``path.derivative(s) s'(tau)``, where ``s(t)`` is
-   the nominal profile every Cartesian method starts from (quintic for a fixed duration, else the
-   speed-limited trapezoid of ``CartesianTask.speeds()``) without joint-rate caps (meeting the joint
-   limits is the controller's business) and ``tau`` is the path clock (below).
+1. The setpoint: pose on the path at ``s(tau)``, twist ``path.derivative(s) s'`` (``s'``: the mean
+   rate of ``s`` over the tick, ``setpoint.tick_table``), where ``s(t)`` is the nominal profile
+   every Cartesian method starts from (quintic for a fixed duration, else the speed-limited
+   trapezoid of ``CartesianTask.speeds()``) without joint caps (the controller's business; where
+   no duration is given, ``simulate`` re-times it for the joint accelerations:
+   ``core.cartesian.rate.retime``) and ``tau`` is the path clock (below).
 2. The task twist ``V = twist + K e`` with ``e = [p_d - p, log(R_d R^T)]``: the position error and
    the rotation vector of the orientation error, both in the base frame, which are the coordinates
    of the Jacobian's rows (tip-origin linear velocity, angular velocity, base frame); the SE3 log
@@ -30,6 +32,8 @@ The nominal duration T is split into whole ticks of ``dt = T / ceil(T / control_
      keeps the DLS rates of the feedforward twist within ``TIME_SCALE_MARGIN`` of the limits (online
      time scaling, as in Dahl & Nielsen, IEEE Trans. Robot. Autom. 6(5), 1990). ``resolved_rate``
      keeps ``kappa = 1``: it is the classic reference.
+   Without a ``duration`` the rates are scaled down where the tool's own speeds ``|J_p qd|``,
+   ``|J_w qd|`` would exceed the task's limits (the feedback term's share: ``steps.speed_scale``).
 4. ``q += qd dt`` (explicit Euler; the returned positions lie on this piecewise-linear path).
 
 When the path clock has reached the end the setpoint rests at the goal and the run ends once the pose
@@ -46,7 +50,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -59,6 +63,7 @@ from core.cartesian.rate.qp import (
     damping,
     solve_dls_qp,
 )
+from core.cartesian.rate.retime import ACCELERATION_TRIGGER, joint_timing, peak_acceleration_ratio
 from core.cartesian.rate.setpoint import LineSetpoint, setpoint_for
 from core.cartesian.rate.steps import (
     TIME_SCALE_MARGIN,
@@ -69,6 +74,7 @@ from core.cartesian.rate.steps import (
     pose_error,
     singular_values,
     smallest_singular_value,
+    speed_scale,
     stuck,
     svd,
     time_scale,
@@ -114,7 +120,8 @@ class RateRun:
 
     Attributes:
         dt: Control period [s].
-        nominal_ticks: Ticks in the nominal duration.
+        nominal_ticks: Ticks in the nominal duration (the first tick at or after its end).
+        nominal_duration: Duration of the nominal profile s(t) [s].
         positions: Joint positions at each tick ``(n, dof)``.
         rates: Joint rates commanded from each tick on ``(n, dof)``; the last row is zero.
         s: Path parameter of the setpoint at each tick ``(n,)``.
@@ -128,10 +135,12 @@ class RateRun:
         tracking_position: Distance [m] from the setpoint at each tick ``(n,)``.
         tracking_orientation: Angle [rad] from the setpoint at each tick ``(n,)``.
         failure: Why the run stopped short of the goal, or None.
+        timing_warnings: Where the clock was slowed for the joint limits (``retime``).
     """
 
     dt: float
     nominal_ticks: int
+    nominal_duration: float
     positions: np.ndarray
     rates: np.ndarray
     s: np.ndarray
@@ -145,6 +154,7 @@ class RateRun:
     tracking_position: np.ndarray
     tracking_orientation: np.ndarray
     failure: PlanningError | None
+    timing_warnings: tuple[str, ...] = ()
 
 
 def nominal_timing(task: CartesianTask, line: Path) -> Profile:
@@ -154,7 +164,21 @@ def nominal_timing(task: CartesianTask, line: Path) -> Profile:
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
-    """Run the controller of ``method`` along the task's line (see the module docstring).
+    """Run the controller of ``method`` along the task's line (see the module docstring); where
+    no ``duration`` is given and the run's joints accelerate over ``ACCELERATION_TRIGGER`` of their
+    limits, run it again on the clock ``core.cartesian.rate.retime.joint_timing`` slows for them."""
+    run, limits = _simulate(task, method, extra_rows), task.robot.acceleration_limits
+    if run.failure is None and task.duration is None:
+        if peak_acceleration_ratio(run.rates, run.dt, limits) > ACCELERATION_TRIGGER:
+            slower = joint_timing(task, validated_line(task), run.s, run.positions)
+            if slower is not None:
+                run = _simulate(task, method, extra_rows, slower.profile)
+                run = replace(run, timing_warnings=slower.warnings)
+    return run
+
+
+def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile | None = None):
+    """One run of the controller of ``method`` on the clock ``timing`` (default ``nominal_timing``).
 
     ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.qp.ExtraRows``:
     obstacle avoidance); OSQP only, and not with ``resolved_rate``. Planning failures end the run
@@ -185,9 +209,9 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             "extra inequality rows need resolved_rate_dls with osqp", field=("method",)
         )
     line = validated_line(task)
-    timing = nominal_timing(task, line)
+    timing = nominal_timing(task, line) if timing is None else timing
     nominal = max(1, math.ceil(timing.duration / period - 1e-9))
-    dt = timing.duration / nominal
+    dt = period
     total = nominal + math.ceil(max(SETTLE_TIME, SETTLE_FRACTION * timing.duration) / dt)
     if total > MAX_TICKS:
         raise TooLarge(
@@ -199,6 +223,10 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     p_rows = rows[rows < 3]
     all_rows, all_p = len(rows) == 6, len(p_rows) == 3
     gain = min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)
+    lin_cap, ang_cap = task.speeds()  # the tool's speed limits (none with a duration)
+    lin_cap = math.inf if lin_cap is None else float(lin_cap)
+    ang_cap = math.inf if ang_cap is None or not pose_task else float(ang_cap)
+    capped, p_list = lin_cap < math.inf or ang_cap < math.inf, len(p_rows)  # (rows 0..2 or 0..1)
     goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
     capacity = 0 if extra_rows is None else int(extra_rows.capacity)
     qp = DlsQpSolver(robot.dof, extra_rows=capacity) if dls and solver == "osqp" else None
@@ -318,6 +346,10 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
                     step.fallback,
                 )
             fallbacks += fell_back
+            if capped:  # the tool's speed limits hold for the feedback term too
+                c = speed_scale(J_now, rates[k], p_list, lin_cap, ang_cap)
+                if c < 1.0:
+                    rates[k] *= c
             np.multiply(rates[k], dt, out=nxt)
             np.add(q, nxt, out=nxt)
             if not clear:  # (a clear tick's q + qd dt is more than v_max dt inside the limits)
@@ -332,6 +364,8 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             if failure is not None:
                 n = k + 1
                 break
+            if capped:
+                qd = qd * speed_scale(J_now, qd, p_list, lin_cap, ang_cap)
             rates[k] = qd
             np.multiply(qd, dt, out=nxt)
             np.add(q, nxt, out=nxt)
@@ -349,6 +383,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
     return RateRun(
         dt=dt,
         nominal_ticks=nominal,
+        nominal_duration=float(timing.duration),
         positions=positions[:n],
         rates=rates[:n],
         s=s_log[:n],

@@ -11,6 +11,12 @@
   a uniform deceleration of the path clock whose rate ``a`` keeps ``|qd_i| a <= a_max_i`` for the
   prefix's peak rates (the path's own curvature is not counted). ``fraction`` is the line parameter
   of the closest point to the tool's final pose.
+- Obstacles (``resolved_rate_dls`` with an environment): where the velocity dampers pushed the tool
+  out of the tolerance band because the line runs through an obstacle, the answer is that
+  ``Collision`` (``core.cartesian.rate.obstacle``), as every other method gives it; a partial plan
+  is then the run without dampers (on the line) up to its last clear tick, braked to rest.
+- Ticks off the line (damping near a singularity, active rate bounds, lag): 422 ``Infeasible``
+  naming the controller as the cause (``_strayed``), not the sampling, unless ``allow_violations``.
 - Checks and measurements: ``core.cartesian.check.finish`` (limits, dense deviation, singular values),
   then the controller's own figures in ``diagnostics`` and what a client should know in ``warnings``.
 """
@@ -22,12 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from core.cartesian.check import finish
+from core.cartesian.check import VIOLATION_SLACK, finish
 from core.cartesian.partial import partial_warning
 from core.cartesian.rate.control import GOAL_FRACTION, RateRun
+from core.cartesian.rate.obstacle import blocking_contact
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
+from core.errors import Infeasible
 from core.trajectory import Trajectory, sample_times
 
 GOAL_CONFIGURATION_WARNING = 1e-3
@@ -41,6 +49,13 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
     line = task.line()
     if run.failure is not None:
         run = replace(run, failure=controller_exit(task.robot, line, run.failure, task.deadline))
+    detour = None
+    if method == "resolved_rate_dls" and task.clearance is not None:
+        detour = blocking_contact(task, line, run, _along_line(task, line, run.positions)[1])
+        if detour is not None and not task.allow_violations:
+            # the answer of every method: the collision; a partial plan is the run on the line
+            # (without dampers) up to its last clear tick
+            run = replace(detour.free, failure=detour.failure)
     if run.failure is not None and not task.allow_partial:
         raise run.failure
     last = len(run.s) - 1
@@ -49,14 +64,23 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
     else:
         closest, first_out = _along_line(task, line, run.positions)
         m = last
-        if method == "resolved_rate_dls":  # up to where the tool first left the tolerance band
+        if detour is not None and run.failure is detour.failure:
+            m = max(1, min(detour.clear, first_out - 1))
+        elif method == "resolved_rate_dls":  # up to where the tool first left the tolerance band
             m = int(np.argmax(closest[: max(first_out, 1)]))
         fraction = min(float(closest[m]), float(np.nextafter(1.0, 0.0)))
     trajectory, s_points = _sample(task, run, m, brake=run.failure is not None)
     result = CartesianResult(trajectory=trajectory, fraction=fraction, failure=run.failure)
     result = finish(task, result, s_points)
+    if run.failure is None and not (task.allow_partial or task.allow_violations):
+        strayed = _strayed(task, line, run)  # (the 200 rule's answer, naming the cause)
+        if strayed is not None:
+            raise strayed
     result = replace(result, diagnostics=_diagnostics(task, run, method, result))
-    return replace(result, warnings=tuple(_warnings(task, run, result)))
+    warnings = _warnings(task, run, result)
+    if detour is not None and run.failure is None:  # allow_violations: the detour is accepted
+        warnings.append(f"the tool left the line to keep the clearance: {detour.failure.detail}")
+    return replace(result, warnings=tuple(warnings))
 
 
 def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.ndarray, int]:
@@ -77,6 +101,38 @@ def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.nd
         if out.size and first_out == len(positions):
             first_out = i + int(out[0])
     return np.concatenate(s), first_out
+
+
+def _strayed(task: CartesianTask, line, run: RateRun) -> Infeasible | None:
+    """``Infeasible`` where the controller's own ticks leave the tolerance band (the 200 rule's
+    answer, but naming the controller, not the sampling, as the cause), else None. Skipped when
+    every tick is within the tolerances of its setpoint (a point of the line)."""
+    tol_p, tol_o = task.position_tolerance, task.orientation_tolerance
+    if run.tracking_position.max() <= tol_p and run.tracking_orientation.max() <= tol_o:
+        return None
+    dev = line.deviation(task.robot.fk_many(run.positions), tol_p, tol_o)
+    worst = np.maximum(dev.position / tol_p, dev.orientation / tol_o)
+    k = int(np.argmax(worst))
+    if worst[k] <= 1.0 + VIOLATION_SLACK:
+        return None
+    step = min(k, len(run.sigma) - 1)
+    if step >= 0 and run.damping[step] > 0.0:
+        why = f"damped near a singularity (smallest singular value {run.sigma[step]:.2e})"
+    elif step >= 0 and run.active[step]:
+        why = "its joint rate bounds (velocity or position limits) were active"
+    else:
+        why = "it lagged behind the setpoint"
+    return Infeasible(
+        f"the controller's own ticks leave the line by up to {dev.position.max():.3g} m / "
+        f"{dev.orientation.max():.3g} rad (tolerance {tol_p:g} m / {tol_o:g} rad) near "
+        f"s={dev.s[k]:.4f}, where {why}: more samples would not help; ask for a longer duration "
+        "or lower tool speeds, or set allow_violations to accept it",
+        s=float(dev.s[k]),
+        extra={
+            "max_position_deviation": float(dev.position.max()),
+            "max_orientation_deviation": float(dev.orientation.max()),
+        },
+    )
 
 
 def _sample(
@@ -118,7 +174,7 @@ def _diagnostics(
 ) -> dict[str, Any]:
     """The controller's figures (JSON-serializable)."""
     steps = len(run.sigma)
-    nominal = run.nominal_ticks * run.dt
+    nominal = run.nominal_duration
     diag: dict[str, Any] = {
         "control_period": run.dt,
         "control_ticks": len(run.s),
@@ -154,7 +210,7 @@ def _diagnostics(
 
 def _warnings(task: CartesianTask, run: RateRun, result: CartesianResult) -> list[str]:
     """What a client should know: active limits, lag, damping, accepted deviation."""
-    out: list[str] = []
+    out: list[str] = list(run.timing_warnings)
     diag = result.diagnostics
     if diag["active_limit_steps"]:
         out.append(

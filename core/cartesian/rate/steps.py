@@ -193,3 +193,21 @@ def stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningErr
     return NoConvergence(
         f"the controller did not reach the goal; it stopped at s={s_reached:.4f}", s=s_reached
     )
+
+
+def speed_scale(
+    J: np.ndarray, qd: np.ndarray, linear_rows: int, linear: float, angular: float
+) -> float:
+    """Factor in (0, 1] that keeps the tool's speeds within the task's limits: the linear speed
+    ``|J_p qd|`` (the Jacobian's first ``linear_rows`` rows: 3, or 2 for ``position_xy``) within
+    ``linear`` [m/s] and the angular speed ``|J_w qd|`` (rows 3-5) within ``angular`` [rad/s]
+    (``inf``: no limit). Scaling the rates by it keeps them inside their bounds (which contain 0)
+    and the extra rows ``a . qd >= b`` (``b <= 0``). (One product and Python floats: ~1 us.)"""
+    t = J.dot(qd).tolist()
+    speed = math.sqrt(sum(x * x for x in t[:linear_rows]))
+    scale = linear / speed if speed > linear else 1.0
+    if angular < math.inf:
+        turn = math.sqrt(t[3] * t[3] + t[4] * t[4] + t[5] * t[5])
+        if turn * scale > angular:
+            scale = angular / turn
+    return scale
