@@ -13,7 +13,11 @@ returned trajectory and splitting as Taylor's (``core.cartesian.knots.finish_kno
 Failures: when no count below K_T is accepted, ``TimeBudgetExceeded`` if a wall-time cap (or
 ``task.deadline``) stopped the search, ``NoConvergence`` if a solve stopped at the iteration cap;
 otherwise (IPOPT found each smaller count infeasible, or its solution failed the numpy check)
-Taylor's knots are returned, with a warning.
+Taylor's knots are returned, with a warning. With obstacles (``task.clearance``) a search that
+finds no knot set keeping the clearance within the tolerance band returns Taylor's knots too (they
+ignore obstacles), iteration cap or not: the continuous collision check of the returned trajectory
+then reports the contact (422 ``collision`` at the same ``s`` as ``bounded_deviation``), which is
+the answer to "the line is blocked", not a solver failure.
 """
 
 from __future__ import annotations
@@ -139,7 +143,13 @@ def _plan_nlp(
         "knot_time_ms": 1e3 * (time.perf_counter() - started),
     }
     if best is taylor and search.attempts:
-        warnings = [*warnings, "the NLP found no knot set smaller than Taylor's; returning those"]
+        warnings = [
+            *warnings,
+            "the NLP found no knot set smaller than Taylor's; returning those"
+            if task.clearance is None
+            else "the NLP found no knot set that keeps the clearance within the tolerance; "
+            "returning Taylor's knots, which ignore obstacles",
+        ]
     return finish_knots(
         task, line, best, stats=stats, diagnostics=diagnostics, warnings=warnings, reference=ref
     )
@@ -211,7 +221,7 @@ class _KnotSearch:
                 "the knot NLP reached its wall-time cap before finding a solution",
                 extra={"statuses": tried},
             )
-        if capped:
+        if capped and self.task.clearance is None:
             raise NoConvergence(
                 "IPOPT did not converge for any knot count below Taylor's "
                 f"{len(self.taylor)} (iteration cap {self.max_iter})",
