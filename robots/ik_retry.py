@@ -65,8 +65,7 @@ def ik_one(
         return found
     T = np.asarray(T_base_tool, dtype=float)
     seed = robot.home if seed is None else np.asarray(seed, dtype=float)
-    axes = 2 if robot.task_space == "position_xy" else 3
-    if np.linalg.norm((T[:3, 3] - robot.reach_origin())[:axes]) > robot.reach_bound() + 1e-9:
+    if robot.reach_distance(T) > robot.reach_bound() + 1e-9:
         return found
     stop = time.monotonic() + min(RETRY_SECONDS, 0.5 * deadline.remaining())
     fixed = {robot.joint_names.index(n): float(v) for n, v in fixed_joints.items()}

@@ -421,6 +421,13 @@ class Robot:
         travel = np.where(self._revolute, 0.0, np.abs(self._limits).max(axis=1)).sum()
         return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() + travel)
 
+    def reach_distance(self, T_base_tool: np.ndarray) -> float:
+        """The distance [m] of a tool pose's position from ``reach_origin``, to compare with
+        ``reach_bound`` (in x and y only for a ``position_xy`` arm)."""
+        axes = 2 if self.task_space == "position_xy" else 3
+        offset = np.asarray(T_base_tool, dtype=float)[:3, 3] - self.reach_origin()
+        return float(np.linalg.norm(offset[:axes]))
+
     def link_frames(self, q: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """Every link frame's name and ``T_base_frame`` (4, 4) at ``q``, in kinematic order (the
         model's frame order: each link after its parent)."""

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
+from core.cartesian.joint_limits import outside, worst_joint
 from core.errors import BranchFlip, JointLimit, PlanningError, Singularity, Unreachable
 from core.kinematics import Kinematics, task_rows
 
@@ -63,8 +64,7 @@ def walk(
 ) -> Walk:
     """IK at every s of ``grid`` (and more where steps are halved), from ``q0`` at s = grid[0]."""
     rows = task_rows(robot.task_space)
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    span = np.maximum(hi - lo, 1.0)
+    limits = robot.position_limits
     options = {"respect_limits": False}
     names = robot.joint_names
 
@@ -113,8 +113,8 @@ def walk(
                 s=s_try,
                 joint=j,
             )
-        if np.any(q_new < lo - 1e-9 * span) or np.any(q_new > hi + 1e-9 * span):
-            j = int(np.argmax(np.maximum(lo - q_new, q_new - hi)))
+        if outside(q_new, limits).any():
+            j = worst_joint(q_new, limits)
             return JointLimit(
                 f"joint {names[j]} leaves its position limits at s={s_try:.4f}", s=s_try, joint=j
             )

@@ -8,6 +8,7 @@ import numpy as np
 from fastapi import APIRouter, Depends, Path
 
 from core.budget import Deadline
+from core.cartesian.joint_limits import worst_joint
 from core.errors import InputError, JointLimit, Unreachable
 from robots import ik as robot_ik
 from robots import registry
@@ -260,17 +261,14 @@ def _no_solution(
         )
     free = robot_ik.search(robot, T, seed, respect_limits=False)
     if found.outside_limits or (free.position_error <= 1e-6 and free.orientation_error <= 1e-6):
-        q = free.positions
-        lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-        j = int(np.argmax(np.maximum(lo - q, q - hi)))
+        j = worst_joint(free.positions, robot.position_limits)
         raise JointLimit(
             f"the pose is reachable only with joint '{robot.joint_names[j]}' outside its limits",
             joint=j,
             extra={"joint_name": robot.joint_names[j]},
         )
     reach = robot.reach_bound()
-    axes = 2 if robot.task_space == "position_xy" else 3  # planar arms: the distance in x, y
-    distance = float(np.linalg.norm((T[:3, 3] - robot.reach_origin())[:axes]))
+    distance = robot.reach_distance(T)  # planar arms: the distance in x, y
     raise Unreachable(
         f"no IK solution within 1e-9 m and 1e-9 rad (best residual {result.position_error:.3g} m, "
         f"{result.orientation_error:.3g} rad); the goal is {distance:.3g} m from the first joint, "
