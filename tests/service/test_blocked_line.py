@@ -8,17 +8,12 @@ from __future__ import annotations
 import pytest
 from fastapi.testclient import TestClient
 
+from core.cartesian.methods import METHODS as CARTESIAN_METHODS
 from service.app import create_app
 from tests.service.helpers import problem
 from tests.service.test_rate_answers import BALL, OFFSET, UR5, lin
 
-METHODS = [
-    "sampled",
-    "bounded_deviation",
-    "bounded_deviation_nlp",
-    "resolved_rate",
-    "resolved_rate_dls",
-]
+METHODS = list(CARTESIAN_METHODS)  # every method the service offers
 
 
 @pytest.fixture(scope="module")
