@@ -14,6 +14,8 @@ from collections.abc import Generator, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import httpx
+
 from trajectory_client.endpoints import parse
 from trajectory_client.errors import TransportError, error_for
 from trajectory_client.results import BatchResult
@@ -90,6 +92,8 @@ class BatchStream(Iterator[BatchResult]):
                     yield self._result(index, doc)
             except RETRYABLE_TRANSPORT as exc:
                 cause: Exception = exc
+            except httpx.TransportError as exc:  # a timeout between two items
+                raise TransportError(f"POST /v1/batch: {exc!r}") from exc
             else:
                 if not pending:
                     return

@@ -151,6 +151,8 @@ class TrajectoryClient:
                 wait = self.retry.delay(retry, None, self._rng)
                 if wait is None:
                     raise TransportError(f"{method} {path}: {exc}") from exc
+            except httpx.TransportError as exc:  # a timeout: the service is busy with it
+                raise TransportError(f"{method} {path}: {exc!r}") from exc
             else:
                 if response.is_success:
                     return response

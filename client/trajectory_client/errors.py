@@ -29,8 +29,9 @@ class TrajectoryError(Exception):
 
 
 class TransportError(TrajectoryError):
-    """No answer from the service: connection refused or reset, after every retry (the cause is
-    chained as ``__cause__``)."""
+    """No answer from the service: the connection refused or reset after every retry, or a
+    timeout (never retried: the service is busy with the request). The httpx error is chained as
+    ``__cause__``."""
 
 
 class ServiceError(TrajectoryError):
