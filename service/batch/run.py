@@ -143,10 +143,10 @@ class BatchRun:
     def _admit(self, index: int, item: BatchItem, answer: Answer) -> ItemResult:
         """The item's result once its bytes are admitted into the batch's answer (or the failure
         that takes its place: too large for what is left, or the worker's budget in use)."""
-        size, limit = len(answer.body), self.settings.max_response_bytes
         if "json" not in answer.media_type:  # every endpoint answers JSON: a defect otherwise
             answer = internal_error()
-        elif self.answer_bytes + size > limit:
+        size, limit = len(answer.body), self.settings.max_response_bytes
+        if self.answer_bytes + size > limit:
             status, body = planning_error_body(
                 TooLarge(
                     f"the batch's answer would take {self.answer_bytes + size} bytes with this "
