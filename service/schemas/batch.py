@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from fastapi import Query
-from pydantic import BaseModel, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from service.batch.endpoints import ENDPOINTS
 from service.schemas.common import StrictModel
@@ -43,8 +43,26 @@ class BatchItem(StrictModel):
         return value
 
 
+EXAMPLE: dict[str, Any] = {
+    "defaults": {"robot": "ur5"},
+    "items": [
+        {
+            "endpoint": "trajectories/joint",
+            "body": {
+                "profile": "quintic",
+                "start": {"positions": [0.0, -1.047, 1.571, -2.094, -1.571, 0.0]},
+                "goal": {"positions": [0.3, -1.2, 1.8, -2.2, -1.3, 0.4]},
+            },
+        },
+        {"endpoint": "fk", "body": {"positions": [0.3, -1.2, 1.8, -2.2, -1.3, 0.4]}},
+    ],
+}
+
+
 class BatchRequest(StrictModel):
     """Up to 256 plan requests, answered in order, each as its endpoint answers it."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE]})
 
     items: list[BatchItem] = Field(
         min_length=1, max_length=MAX_ITEMS, description="The requests, at most 256."
