@@ -130,9 +130,9 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
 
         with server(1) as live, httpx.Client(timeout=120) as client:
             if "B1" in tasks:
-                do(batch.b1_lines, client, live)
+                do(batch.b1_lines, client, live, quick)
             if "B2" in tasks:
-                do(batch.b2_joint_moves, client, live)
+                do(batch.b2_joint_moves, client, live, quick)
     if "P6" in tasks:
         requests, seconds = (400, 10.0) if quick else (20_000, 30.0)
         do(http_load.p6_http, requests, seconds, budget, measure)

@@ -6,7 +6,8 @@ in each axis (seeded); B2 100 quintic joint moves from home to goals up to 0.3 r
 Every plan is checked continuously against ``ENVIRONMENT`` (a table, a wall, four pillars and four
 balls, 1 cm clearance). One by one, each request builds its own collision model; in a batch the
 items share one (``service.memo``). Every answer must be 200 (a failed plan is an error of the
-bench, not a timing). ``lines`` and ``joint_moves`` are also the workload of the batch tests.
+bench, not a timing). ``--quick`` (CI) plans ``QUICK_PLANS`` per row. ``lines`` and ``joint_moves``
+are also the workload of the batch tests.
 """
 
 from __future__ import annotations
@@ -178,9 +179,15 @@ def _table(
     )
 
 
-def b1_lines(client: Any, live: LiveServer) -> Table:
-    return _table("B1", "Cartesian lines", "trajectories/cartesian", lines(), client, live)
+QUICK_PLANS = 20
+"""Plans per row in ``--quick`` runs (CI): the rows run, the numbers are not the table's."""
 
 
-def b2_joint_moves(client: Any, live: LiveServer) -> Table:
-    return _table("B2", "quintic joint moves", "trajectories/joint", joint_moves(), client, live)
+def b1_lines(client: Any, live: LiveServer, quick: bool = False) -> Table:
+    bodies = lines(QUICK_PLANS if quick else PLANS)
+    return _table("B1", "Cartesian lines", "trajectories/cartesian", bodies, client, live)
+
+
+def b2_joint_moves(client: Any, live: LiveServer, quick: bool = False) -> Table:
+    bodies = joint_moves(QUICK_PLANS if quick else PLANS)
+    return _table("B2", "quintic joint moves", "trajectories/joint", bodies, client, live)
