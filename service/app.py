@@ -12,6 +12,7 @@ from service.middleware.catch_all import CatchAllMiddleware
 from service.middleware.observability import ObservabilityMiddleware
 from service.middleware.write_timeout import WriteTimeoutMiddleware
 from service.routes import (
+    batch,
     cartesian,
     collision,
     compare,
@@ -50,6 +51,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router, dependencies=[Depends(deps.request_deadline)])
     for module in TRAJECTORY_ROUTERS:
         app.include_router(module.router, dependencies=[Depends(deps.response_policy)])
+    app.include_router(batch.router)  # its items get their routes' dependencies
     # Innermost first: the body limit and timeouts, then the catch-all 500 (so an error anywhere
     # inside is a whole answer), then request id, metrics and access line around everything.
     app.add_middleware(

@@ -15,6 +15,7 @@ context variable they set is seen by the route, which FastAPI runs in a thread w
 
 from __future__ import annotations
 
+from contextvars import ContextVar
 from dataclasses import replace
 from typing import Annotated
 
@@ -23,6 +24,7 @@ from fastapi import Path, Request
 from core.budget import Deadline
 from robots.model import Robot
 from robots.registry import resolve
+from service import memo
 from service.encoding import RESPONSE_POLICY, ResponsePolicy, current_policy
 from service.schemas.common import LAYOUT_QUERY, Layout
 from service.settings import Settings
@@ -34,13 +36,23 @@ async def get_settings(request: Request) -> Settings:
     return settings
 
 
+BATCH_DEADLINE: ContextVar[Deadline | None] = ContextVar("batch_deadline", default=None)
+"""The deadline of the ``POST /v1/batch`` a request runs in as an item (None outside a batch)."""
+
+
 async def request_deadline(request: Request) -> Deadline:
     """The request's ``Deadline``: ``TRAJ_TIME_BUDGET_S`` from its first use (one per request, kept
-    in ``request.state.deadline``), also checked before a trajectory response is encoded."""
+    in ``request.state.deadline``; a batch item's ends no later than its batch's), also checked
+    before a trajectory response is encoded. Also activates the request's ``service.memo``."""
     deadline: Deadline | None = getattr(request.state, "deadline", None)
     if deadline is None:
         settings: Settings = request.app.state.settings
-        deadline = request.state.deadline = Deadline(settings.time_budget_s)
+        seconds = settings.time_budget_s
+        batch = BATCH_DEADLINE.get()
+        if batch is not None:
+            seconds = min(seconds, batch.remaining())
+        deadline = request.state.deadline = Deadline(seconds)
+        memo.activate()
         RESPONSE_POLICY.set(
             replace(
                 current_policy(),

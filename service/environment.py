@@ -25,6 +25,7 @@ from core.trajectory import Trajectory
 from robots import registry
 from robots.collision import CollisionChecker, Obstacle, PathCheck, robot_setup
 from robots.model import Robot
+from service.memo import collision_key, shared
 from service.schemas.environment import Environment, Halfspace
 
 PROFILE_POINTS = 200
@@ -84,6 +85,7 @@ def clearance_profile(check: CollisionChecker, trajectory: Trajectory) -> dict[s
     return {"time_from_start": trajectory.times[rows].tolist(), "value": d.tolist()}
 
 
+@shared("collision_model", collision_key)
 def checker(
     robot: Robot,
     env: Environment | None,

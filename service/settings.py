@@ -54,6 +54,8 @@ class Settings(BaseSettings):
             ``limit_concurrency``); more is 503 ``overloaded``.
         malloc_retain_bytes: Freed memory a worker keeps for reuse in [bytes] (glibc ``malloc``
             tuning, ``service.allocator``); 0 leaves glibc's defaults.
+        batch_budget_s: Wall-time budget of one ``POST /v1/batch`` in [s]: an item not started
+            by then answers 422 ``time_budget_exceeded``, and a running item stops no later.
     """
 
     model_config = SettingsConfigDict(env_prefix=ENV_PREFIX, frozen=True, extra="forbid")
@@ -76,6 +78,7 @@ class Settings(BaseSettings):
     keep_alive_timeout_s: float = Field(5.0, gt=0, allow_inf_nan=False)
     max_connections: int = Field(1000, ge=1)
     malloc_retain_bytes: int = Field(32 * 1024 * 1024, ge=0, le=1024 * 1024 * 1024)
+    batch_budget_s: float = Field(60.0, gt=0, allow_inf_nan=False)
 
     @field_validator("log_level", "log_format", mode="before")
     @classmethod

@@ -12,9 +12,11 @@ from core.errors import InputError
 from core.trajectory import default_joint_names
 from robots.model import Robot
 from robots.registry import resolve
+from service.memo import robot_key, shared
 from service.schemas.common import InlineRobot
 
 
+@shared("robot", robot_key)
 def resolve_robot(ref: str | InlineRobot | None) -> Robot | None:
     """The ``Robot`` a request names, or ``None`` when it names none."""
     if ref is None:
