@@ -13,10 +13,15 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from core.errors import InputError, TooLarge
+from core.errors import Infeasible, InputError, TooLarge
 
 MAX_POINTS = 100_000
 """Most points one trajectory (one response) may hold."""
+
+MAX_DURATION = 1e5
+"""Longest trajectory any planner returns [s] (about 28 h): the API's bound on every duration, given
+or planned. Its times stay exact to well below a nanosecond in float64 and fit a ROS Duration's
+int32 seconds and any int64 count of nanoseconds."""
 
 DEFAULT_SAMPLE_PERIOD = 0.01
 """Sample period in [s] used when a request gives neither ``sample_period`` nor ``samples``."""
@@ -146,6 +151,18 @@ def default_joint_names(dof: int) -> tuple[str, ...]:
     return tuple(f"j{i + 1}" for i in range(dof))
 
 
+def check_duration(duration: float) -> None:
+    """``Infeasible`` (``extra``: ``duration``, ``max_duration`` [s]) unless ``0 <= duration <=
+    MAX_DURATION``: the one bound of every returned plan, whatever made it long (tiny limits,
+    scales or speeds)."""
+    if not 0.0 <= duration <= MAX_DURATION:
+        raise Infeasible(
+            f"the plan would last {duration:.4g} s, over the limit of {MAX_DURATION:g} s of every "
+            "trajectory (raise the limits, scales or speeds that slow it down)",
+            extra={"duration": float(duration), "max_duration": MAX_DURATION},
+        )
+
+
 MIN_LAST_INTERVAL = 1e-6
 """Shortest last interval [s] of a ``sample_period`` grid: a shorter one (a duration a hair past a
 multiple of the period) is merged into the interval before it, so no pair of returned points is
@@ -162,7 +179,7 @@ def sample_times(
     """Sample times in [s] from 0 to ``duration`` inclusive, strictly increasing.
 
     Args:
-        duration: Trajectory length in [s], > 0.
+        duration: Trajectory length in [s], > 0; over ``MAX_DURATION`` is ``Infeasible``.
         sample_period: Spacing in [s]; the last interval may be shorter so the last point is at
             ``duration`` (one shorter than ``MIN_LAST_INTERVAL`` is merged into its neighbour).
         samples: Number of points (>= 2), evenly spaced; overrides ``sample_period``.
@@ -173,6 +190,7 @@ def sample_times(
     """
     if not np.isfinite(duration) or duration <= 0.0:
         raise InputError("duration must be a finite number > 0 s", field=("duration",))
+    check_duration(duration)
     if samples is not None:
         if samples < 2:
             raise InputError("samples must be at least 2", field=("samples",))

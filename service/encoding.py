@@ -28,17 +28,17 @@ from starlette.types import Receive, Scope, Send
 
 from core.budget import Deadline
 from core.errors import Infeasible, TooLarge
-from core.trajectory import Trajectory
+from core.trajectory import Trajectory, check_duration
 from service.errors import Overloaded
-from service.points_json import PointsJSON, encode_default
+from service.points_json import PointsJSON, encode_default, ros_parts
 
 JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
 
 def ros_durations(times: np.ndarray) -> list[dict[str, int]]:
-    """Times in [s] -> ROS ``builtin_interfaces/Duration`` dicts through integer nanoseconds."""
-    ns = np.rint(np.asarray(times, dtype=float) * 1e9).astype(np.int64)
-    sec, nanosec = np.divmod(ns, 1_000_000_000)
+    """Times in [s] -> ROS ``builtin_interfaces/Duration`` dicts through integer nanoseconds
+    (``ros_parts``: times outside ``[0, MAX_DURATION]`` are refused, never wrapped)."""
+    sec, nanosec = ros_parts(times)
     return [
         {"sec": int(s), "nanosec": int(n)}
         for s, n in zip(sec.tolist(), nanosec.tolist(), strict=True)
@@ -125,10 +125,13 @@ def trajectory_body(
 
 
 def check_finite(traj: Trajectory) -> None:
-    """Refuse to emit a non-finite number (a planner bug, never a client's fault)."""
+    """Refuse to emit a non-finite number (a planner bug, never a client's fault) or a trajectory
+    longer than ``MAX_DURATION`` (``check_duration``: 422 ``infeasible``). Every trajectory route
+    passes here, so no planned duration escapes the bound, whatever field made it long."""
     for name in ("times", "positions", "velocities", "accelerations"):
         if not np.all(np.isfinite(getattr(traj, name))):
             raise Infeasible(f"planning produced a non-finite {name} value; the plan is refused")
+    check_duration(traj.duration)
 
 
 STREAM_BYTES = 16 * 1024 * 1024
