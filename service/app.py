@@ -6,6 +6,7 @@ from fastapi import Depends, FastAPI
 
 from service import __version__, deps, errors
 from service.allocator import tune_malloc
+from service.media_type import require_json
 from service.middleware import metrics
 from service.middleware.body_limit import BodyLimitMiddleware
 from service.middleware.catch_all import CatchAllMiddleware
@@ -47,9 +48,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (health, ready, metrics, playground):
         app.include_router(module.router)
     for module in PLANNING_ROUTERS:
-        app.include_router(module.router, dependencies=[Depends(deps.request_deadline)])
+        app.include_router(
+            module.router, dependencies=[Depends(require_json), Depends(deps.request_deadline)]
+        )
     for module in TRAJECTORY_ROUTERS:
-        app.include_router(module.router, dependencies=[Depends(deps.response_policy)])
+        app.include_router(
+            module.router, dependencies=[Depends(require_json), Depends(deps.response_policy)]
+        )
     # Innermost first: the body limit and timeouts, then the catch-all 500 (so an error anywhere
     # inside is a whole answer), then request id, metrics and access line around everything.
     app.add_middleware(

@@ -5,8 +5,8 @@ failures add ``s`` (path parameter in [0, 1]); validation failures add ``errors`
 location and a message. No body ever echoes the offending input value back.
 
 Beside ``STATUS`` (planning errors), ``HTTP_CODES`` gives the codes of HTTP-level answers (404
-``not_found``, 405 ``method_not_allowed``, 408 ``request_timeout``, 413 ``too_large``, 503
-``overloaded``); an ``ArithmeticError`` is 422 ``infeasible``; any other exception is 500
+``not_found``, 405 ``method_not_allowed``, 408 ``request_timeout``, 413 ``too_large``, 415
+``unsupported_media_type``, 503 ``overloaded``); an ``ArithmeticError`` is 422 ``infeasible``; any other exception is 500
 ``internal_error``, answered by ``service.middleware.catch_all`` so the connection stays usable.
 The HTTP protocol (``service.middleware.http_protocol``) answers what never reaches the app: 400
 ``bad_request`` (malformed HTTP), 408 (slow headers), 503 (too many connections).
@@ -212,6 +212,11 @@ HTTP_CODES: dict[int, tuple[str, str, str]] = {
     405: ("method_not_allowed", "Method not allowed", "the endpoint does not accept this method"),
     408: ("request_timeout", "Request timeout", "the request was not received in time"),
     413: ("too_large", "Request body too large", "the request body is too large"),
+    415: (
+        "unsupported_media_type",
+        "Unsupported media type",
+        "the request body must be JSON: Content-Type application/json (or application/*+json)",
+    ),
     503: ("overloaded", "Service overloaded", "the service is at capacity; retry later"),
 }
 """HTTP-level errors (no planning involved): status -> (code, title, default detail)."""
