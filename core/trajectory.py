@@ -208,7 +208,8 @@ def sample_times(
     # Count in floats first: a subnormal period (5e-324) makes the ratio inf, which int() refuses.
     points = float(np.ceil(duration / period - 1e-9)) + 1.0
     if not points <= max_points:
-        count = f"{points:.0f}" if np.isfinite(points) else f"more than {max_points}"
+        # .4g: a period of 1e-155 s gives 1e160 points, not a 160-digit integer in the detail
+        count = f"{points:.4g}" if np.isfinite(points) else f"more than {max_points}"
         raise TooLarge(
             f"duration {duration:.6g} s at sample_period {period:.6g} s gives {count} "
             f"points, over the limit of {max_points}",
