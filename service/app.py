@@ -58,7 +58,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # Innermost first: the body limit and timeouts, then the catch-all 500 (so an error anywhere
     # inside is a whole answer), then request id, metrics and access line around everything.
     app.add_middleware(
-        BodyLimitMiddleware, max_bytes=settings.max_body_bytes, timeout_s=settings.body_timeout_s
+        BodyLimitMiddleware,
+        max_bytes=settings.max_body_bytes,
+        timeout_s=settings.body_timeout_s,
+        deadline_s=settings.body_deadline_s,
     )
     app.add_middleware(WriteTimeoutMiddleware, timeout_s=settings.write_timeout_s)
     app.add_middleware(CatchAllMiddleware)

@@ -47,6 +47,9 @@ class Settings(BaseSettings):
         header_timeout_s: Time a client has to send a request's line and headers in [s], counted
             from its first byte; past it, 408 ``request_timeout`` and the connection is closed.
         body_timeout_s: Longest wait for the next piece of a request body in [s]; past it, 408.
+        body_deadline_s: Longest time for a whole request body in [s], counted from the end of its
+            headers; past it, 408 and the connection is closed (a body trickled a byte at a time
+            never stalls for ``body_timeout_s``).
         write_timeout_s: Longest wait for a client to accept the next piece of a response in [s];
             past it the connection is closed (a client that does not read cannot pin memory).
         keep_alive_timeout_s: Idle time after which a keep-alive connection is closed in [s].
@@ -72,6 +75,7 @@ class Settings(BaseSettings):
     response_budget_bytes: int = Field(768 * 1024 * 1024, ge=1024)
     header_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
     body_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
+    body_deadline_s: float = Field(30.0, gt=0, allow_inf_nan=False)
     write_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
     keep_alive_timeout_s: float = Field(5.0, gt=0, allow_inf_nan=False)
     max_connections: int = Field(1000, ge=1)
