@@ -8,6 +8,8 @@ per second, per second squared).
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import NamedTuple, Protocol
 
@@ -25,6 +27,13 @@ int32 seconds and any int64 count of nanoseconds."""
 
 DEFAULT_SAMPLE_PERIOD = 0.01
 """Sample period in [s] used when a request gives neither ``sample_period`` nor ``samples``."""
+
+SAMPLING_ADMISSION: ContextVar[Callable[[int], None] | None] = ContextVar(
+    "sampling_admission", default=None
+)
+"""Called by ``sample_times`` with the point count before a grid is allocated, in the caller's
+context: a service admits the memory the samples will take (raising its own exception to refuse
+them) before the planner fills arrays of that length. None: no admission."""
 
 
 class Peaks(NamedTuple):
@@ -170,6 +179,12 @@ closer than a microsecond (finite-difference accelerations over such a pair are 
 resolved-rate plan ending 1.6e-7 s after its last grid point reported 7.8e3 rad/s^2)."""
 
 
+def _admit(points: int) -> None:
+    admit = SAMPLING_ADMISSION.get()
+    if admit is not None:
+        admit(points)
+
+
 def sample_times(
     duration: float,
     sample_period: float | None = None,
@@ -184,6 +199,7 @@ def sample_times(
             ``duration`` (one shorter than ``MIN_LAST_INTERVAL`` is merged into its neighbour).
         samples: Number of points (>= 2), evenly spaced; overrides ``sample_period``.
         max_points: Upper bound on the count; more is ``TooLarge`` (checked before allocating).
+            The count is then passed to the ``SAMPLING_ADMISSION`` hook, if one is set.
 
     Returns:
         Times, shape ``(N,)``, ``N >= 2``.
@@ -198,6 +214,7 @@ def sample_times(
             raise TooLarge(
                 f"samples={samples} exceeds the limit of {max_points} points", field=("samples",)
             )
+        _admit(int(samples))
         # np.linspace(0, duration, samples) without its overhead: the same products i * step.
         times = np.arange(int(samples), dtype=float) * (duration / (int(samples) - 1))
         times[-1] = duration
@@ -216,6 +233,7 @@ def sample_times(
             field=("sample_period",),
         )
     intervals = int(points) - 1
+    _admit(intervals + 1)
     times = np.arange(intervals + 1, dtype=float) * period
     times[-1] = duration
     if intervals >= 2 and times[-1] - times[-2] < MIN_LAST_INTERVAL:

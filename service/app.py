@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import Depends, FastAPI
 
-from service import __version__, deps, errors
+from service import __version__, admission, deps, errors
 from service.allocator import tune_malloc
 from service.media_type import require_json
 from service.middleware import metrics
@@ -49,11 +49,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router)
     for module in PLANNING_ROUTERS:
         app.include_router(
-            module.router, dependencies=[Depends(require_json), Depends(deps.request_deadline)]
+            module.router,
+            dependencies=[
+                Depends(require_json),
+                Depends(admission.admit),
+                Depends(deps.request_deadline),
+            ],
         )
     for module in TRAJECTORY_ROUTERS:
         app.include_router(
-            module.router, dependencies=[Depends(require_json), Depends(deps.response_policy)]
+            module.router,
+            dependencies=[
+                Depends(require_json),
+                Depends(admission.admit),
+                Depends(deps.response_policy),
+            ],
         )
     # Innermost first: the body limit and timeouts, then the catch-all 500 (so an error anywhere
     # inside is a whole answer), then request id, metrics and access line around everything.

@@ -200,6 +200,10 @@ def install(app: FastAPI) -> None:
     async def _overloaded(_: Request, exc: Overloaded) -> Response:
         return overloaded_response(str(exc), exc.retry_after_s)
 
+    @app.exception_handler(MemoryError)
+    async def _out_of_memory(_: Request, exc: MemoryError) -> Response:
+        return out_of_memory_response(exc)
+
 
 class Overloaded(Exception):
     """The worker cannot take this request now (its response memory budget is spent): 503.
@@ -237,6 +241,13 @@ def overloaded_response(detail: str, retry_after_s: int = 1) -> Response:
     response = problem_response(503, body)
     response.headers["Retry-After"] = str(retry_after_s)
     return response
+
+
+def out_of_memory_response(exc: MemoryError) -> Response:
+    """503 ``overloaded`` for a ``MemoryError``: the worker could not allocate what the request
+    needed now (others hold memory, or an address-space limit), which a retry may get; never 500."""
+    log.warning("MemoryError answered as 503 overloaded: %r", exc)
+    return overloaded_response("the worker is out of memory for this request; retry later")
 
 
 def internal_error_response() -> Response:

@@ -44,6 +44,10 @@ class Settings(BaseSettings):
         response_budget_bytes: Estimated bytes of responses one worker holds in flight at once in
             [bytes]; a response that would exceed it while others are in flight is 503
             ``overloaded`` with ``Retry-After`` (default 768 MiB).
+        memory_budget_bytes: Estimated working memory of the requests one worker runs at once in
+            [bytes] (planning arrays, samples x joints, and collision-check entries, points x pairs:
+            ``service.admission``); a request that would exceed it while others run is 503
+            ``overloaded`` with ``Retry-After`` (default 1 GiB).
         header_timeout_s: Time a client has to send a request's line and headers in [s], counted
             from its first byte; past it, 408 ``request_timeout`` and the connection is closed.
         body_timeout_s: Longest wait for the next piece of a request body in [s]; past it, 408.
@@ -73,6 +77,7 @@ class Settings(BaseSettings):
     access_log: bool = True
     max_response_bytes: int = Field(512 * 1024 * 1024, ge=1024)
     response_budget_bytes: int = Field(768 * 1024 * 1024, ge=1024)
+    memory_budget_bytes: int = Field(1024 * 1024 * 1024, ge=1024 * 1024)
     header_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
     body_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
     body_deadline_s: float = Field(30.0, gt=0, allow_inf_nan=False)

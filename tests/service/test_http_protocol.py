@@ -24,6 +24,7 @@ from uvicorn.importer import import_from_string
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from service import encoding
+from service.admission import MemoryBudget, Reservation
 from service.app import create_app
 from service.middleware.http_protocol import PROTOCOL, ServiceHTTPProtocol, enable_nodelay
 from service.settings import Settings
@@ -379,11 +380,11 @@ def test_concurrent_large_answers_never_exceed_the_workers_budget(
     100,000-point answer (about 30 MB estimated each) from a worker whose budget holds two. Every
     answer is a 200 or a 503 ``overloaded``, the bytes in flight never exceed the budget, and all
     of them are returned at the end."""
-    budget = encoding.ResponseBudget()
+    budget = MemoryBudget()
     peak = 0
     reserve = budget.reserve
 
-    def tracking(nbytes: int, limit: int | None) -> encoding.Reservation:
+    def tracking(nbytes: int, limit: int | None) -> Reservation:
         nonlocal peak
         reservation = reserve(nbytes, limit)
         peak = max(peak, budget.in_flight)
