@@ -201,7 +201,8 @@ def _points(body: dict[str, Any], max_points: int) -> int | None:
     duration, period = _number(body.get("duration")), _number(body.get("sample_period"))
     if duration is None:
         return None
-    return min(max_points, math.ceil(duration / (period or DEFAULT_SAMPLE_PERIOD)) + 2)
+    count = duration / (period or DEFAULT_SAMPLE_PERIOD) + 2.0  # inf for a subnormal period
+    return min(max_points, math.ceil(count)) if count < max_points else max_points
 
 
 def estimate(body: Any, route: str, max_points: int) -> Demand:

@@ -191,7 +191,7 @@ def result_body(
     """The response document: the trajectory, its diagnostics and (bounded deviation) ``knots``."""
     diag = diagnostics(result, method, compute_time_ms)
     knots = knots_body(result, time_format)
-    extra = {} if knots is None else {"knots": knots}
+    extra: dict[str, Any] = {} if knots is None else {"knots": knots}
     return trajectory_body(result.trajectory, diag, time_format, **extra)
 
 

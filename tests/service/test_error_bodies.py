@@ -230,7 +230,9 @@ FAILING: list[tuple[str, dict[str, Any]]] = [
 
 
 @needs_registry
-@pytest.mark.parametrize(("url", "body"), FAILING, ids=[f"{u}-{i}" for i, (u, _) in enumerate(FAILING)])
+@pytest.mark.parametrize(
+    ("url", "body"), FAILING, ids=[f"{u}-{i}" for i, (u, _) in enumerate(FAILING)]
+)
 def test_planning_failures(client: TestClient, url: str, body: dict[str, Any]) -> None:
     response = client.post(url, json=body)
     assert response.status_code != 200 or url == "/v1/compare", response.text
@@ -244,7 +246,9 @@ def test_the_sweep_checks_the_route_models() -> None:
     with pytest.raises(AssertionError, match="not a field"):
         bad = {"type": "x/validation", "status": 422, "code": "validation", "detail": "d",
                "errors": [{"loc": ["body", "limits"], "msg": "m"}]}  # fmt: skip
-        documented_problem(422, "application/problem+json", bad, CODES, model_of("/v1/trajectories/program"))
+        documented_problem(
+            422, "application/problem+json", bad, CODES, model_of("/v1/trajectories/program")
+        )
     with pytest.raises(AssertionError, match="no errors"):
         bare = {"type": "x/validation", "status": 422, "code": "validation", "detail": "d"}
         documented_problem(422, "application/problem+json", bare, CODES)
