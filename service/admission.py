@@ -31,6 +31,7 @@ from typing import Any
 
 from fastapi import Request
 
+from core.cartesian.rate.control import MAX_TICKS
 from core.errors import PlanningError
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, SAMPLING_ADMISSION
 from robots import registry
@@ -53,8 +54,6 @@ CARTESIAN_SAMPLE_BYTES = (2048, 512)
 100,000-sample UR5 line took +393 MiB sampled, +373 MiB with bounded_deviation_nlp: 4.1 KB)."""
 RATE_TICK_BYTES = 128
 """Memory of a resolved-rate run per control tick [bytes] (900,000 ticks took +96 MiB)."""
-MAX_RATE_TICKS = 1_000_000
-"""``core.cartesian.rate.control.MAX_TICKS``: the most ticks a run simulates."""
 JOINT_ROUTES = ("/v1/trajectories/joint", "/v1/trajectories/spline")
 """Routes whose plans are joint math (``JOINT_SAMPLE_BYTES``); every other trajectory route is
 counted as a Cartesian one (``CARTESIAN_SAMPLE_BYTES``), the costlier."""
@@ -224,8 +223,8 @@ def estimate(body: Any, route: str, max_points: int) -> Demand:
     fixed = REQUEST_BYTES
     if str(task.get("method", "")).startswith("resolved_rate"):
         duration, period = _number(task.get("duration")), _number(task.get("control_period"))
-        ticks = MAX_RATE_TICKS if duration is None else 2 * duration / (period or 1e-3)
-        fixed += int(min(MAX_RATE_TICKS, ticks)) * RATE_TICK_BYTES
+        ticks = MAX_TICKS if duration is None else 2 * duration / (period or 1e-3)
+        fixed += int(min(MAX_TICKS, ticks)) * RATE_TICK_BYTES
     methods = body.get("methods")
     kept = len(methods) if isinstance(methods, list) and task is not body else 1
     sample_bytes = constant + per_joint * dof + (kept - 1) * 24 * dof  # /v1/compare keeps rows
