@@ -8,18 +8,32 @@ per second, per second squared).
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from core.errors import InputError, TooLarge
+from core.errors import Infeasible, InputError, TooLarge
 
 MAX_POINTS = 100_000
 """Most points one trajectory (one response) may hold."""
 
+MAX_DURATION = 1e5
+"""Longest trajectory any planner returns [s] (about 28 h): the API's bound on every duration, given
+or planned. Its times stay exact to well below a nanosecond in float64 and fit a ROS Duration's
+int32 seconds and any int64 count of nanoseconds."""
+
 DEFAULT_SAMPLE_PERIOD = 0.01
 """Sample period in [s] used when a request gives neither ``sample_period`` nor ``samples``."""
+
+SAMPLING_ADMISSION: ContextVar[Callable[[int], None] | None] = ContextVar(
+    "sampling_admission", default=None
+)
+"""Called by ``sample_times`` with the point count before a grid is allocated, in the caller's
+context: a service admits the memory the samples will take (raising its own exception to refuse
+them) before the planner fills arrays of that length. None: no admission."""
 
 
 class Peaks(NamedTuple):
@@ -146,11 +160,29 @@ def default_joint_names(dof: int) -> tuple[str, ...]:
     return tuple(f"j{i + 1}" for i in range(dof))
 
 
+def check_duration(duration: float) -> None:
+    """``Infeasible`` (``extra``: ``duration``, ``max_duration`` [s]) unless ``0 <= duration <=
+    MAX_DURATION``: the one bound of every returned plan, whatever made it long (tiny limits,
+    scales or speeds)."""
+    if not 0.0 <= duration <= MAX_DURATION:
+        raise Infeasible(
+            f"the plan would last {duration:.4g} s, over the limit of {MAX_DURATION:g} s of every "
+            "trajectory (raise the limits, scales or speeds that slow it down)",
+            extra={"duration": float(duration), "max_duration": MAX_DURATION},
+        )
+
+
 MIN_LAST_INTERVAL = 1e-6
 """Shortest last interval [s] of a ``sample_period`` grid: a shorter one (a duration a hair past a
 multiple of the period) is merged into the interval before it, so no pair of returned points is
 closer than a microsecond (finite-difference accelerations over such a pair are meaningless: a
 resolved-rate plan ending 1.6e-7 s after its last grid point reported 7.8e3 rad/s^2)."""
+
+
+def _admit(points: int) -> None:
+    admit = SAMPLING_ADMISSION.get()
+    if admit is not None:
+        admit(points)
 
 
 def sample_times(
@@ -162,17 +194,19 @@ def sample_times(
     """Sample times in [s] from 0 to ``duration`` inclusive, strictly increasing.
 
     Args:
-        duration: Trajectory length in [s], > 0.
+        duration: Trajectory length in [s], > 0; over ``MAX_DURATION`` is ``Infeasible``.
         sample_period: Spacing in [s]; the last interval may be shorter so the last point is at
             ``duration`` (one shorter than ``MIN_LAST_INTERVAL`` is merged into its neighbour).
         samples: Number of points (>= 2), evenly spaced; overrides ``sample_period``.
         max_points: Upper bound on the count; more is ``TooLarge`` (checked before allocating).
+            The count is then passed to the ``SAMPLING_ADMISSION`` hook, if one is set.
 
     Returns:
         Times, shape ``(N,)``, ``N >= 2``.
     """
     if not np.isfinite(duration) or duration <= 0.0:
         raise InputError("duration must be a finite number > 0 s", field=("duration",))
+    check_duration(duration)
     if samples is not None:
         if samples < 2:
             raise InputError("samples must be at least 2", field=("samples",))
@@ -180,6 +214,7 @@ def sample_times(
             raise TooLarge(
                 f"samples={samples} exceeds the limit of {max_points} points", field=("samples",)
             )
+        _admit(int(samples))
         # np.linspace(0, duration, samples) without its overhead: the same products i * step.
         times = np.arange(int(samples), dtype=float) * (duration / (int(samples) - 1))
         times[-1] = duration
@@ -190,13 +225,15 @@ def sample_times(
     # Count in floats first: a subnormal period (5e-324) makes the ratio inf, which int() refuses.
     points = float(np.ceil(duration / period - 1e-9)) + 1.0
     if not points <= max_points:
-        count = f"{points:.0f}" if np.isfinite(points) else f"more than {max_points}"
+        # .4g: a period of 1e-155 s gives 1e160 points, not a 160-digit integer in the detail
+        count = f"{points:.4g}" if np.isfinite(points) else f"more than {max_points}"
         raise TooLarge(
             f"duration {duration:.6g} s at sample_period {period:.6g} s gives {count} "
             f"points, over the limit of {max_points}",
             field=("sample_period",),
         )
     intervals = int(points) - 1
+    _admit(intervals + 1)
     times = np.arange(intervals + 1, dtype=float) * period
     times[-1] = duration
     if intervals >= 2 and times[-1] - times[-2] < MIN_LAST_INTERVAL:

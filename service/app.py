@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from fastapi import Depends, FastAPI
 
-from service import __version__, deps, errors
+from service import __version__, admission, deps, errors
 from service.allocator import tune_malloc
+from service.media_type import require_json
 from service.middleware import metrics
 from service.middleware.body_limit import BodyLimitMiddleware
 from service.middleware.catch_all import CatchAllMiddleware
@@ -48,14 +49,32 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (health, ready, metrics, playground):
         app.include_router(module.router)
     for module in PLANNING_ROUTERS:
-        app.include_router(module.router, dependencies=[Depends(deps.request_deadline)])
+        app.include_router(
+            module.router,
+            dependencies=[
+                Depends(require_json),
+                Depends(admission.admit),
+                Depends(deps.request_deadline),
+            ],
+        )
     for module in TRAJECTORY_ROUTERS:
-        app.include_router(module.router, dependencies=[Depends(deps.response_policy)])
-    app.include_router(batch.router)  # its items get their routes' dependencies
+        app.include_router(
+            module.router,
+            dependencies=[
+                Depends(require_json),
+                Depends(admission.admit),
+                Depends(deps.response_policy),
+            ],
+        )
+    # the batch's items get their routes' dependencies (admission, deadline) in process
+    app.include_router(batch.router, dependencies=[Depends(require_json)])
     # Innermost first: the body limit and timeouts, then the catch-all 500 (so an error anywhere
     # inside is a whole answer), then request id, metrics and access line around everything.
     app.add_middleware(
-        BodyLimitMiddleware, max_bytes=settings.max_body_bytes, timeout_s=settings.body_timeout_s
+        BodyLimitMiddleware,
+        max_bytes=settings.max_body_bytes,
+        timeout_s=settings.body_timeout_s,
+        deadline_s=settings.body_deadline_s,
     )
     app.add_middleware(WriteTimeoutMiddleware, timeout_s=settings.write_timeout_s)
     app.add_middleware(CatchAllMiddleware)

@@ -14,7 +14,6 @@ answers cannot take a worker past its memory limit. The limits come from ``RESPO
 
 from __future__ import annotations
 
-import threading
 import weakref
 from collections.abc import Iterator
 from contextvars import ContextVar
@@ -28,17 +27,17 @@ from starlette.types import Receive, Scope, Send
 
 from core.budget import Deadline
 from core.errors import Infeasible, TooLarge
-from core.trajectory import Trajectory
-from service.errors import Overloaded
-from service.points_json import PointsJSON, encode_default
+from core.trajectory import Trajectory, check_duration
+from service.admission import MemoryBudget, Reservation
+from service.points_json import PointsJSON, encode_default, ros_parts
 
 JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
 
 def ros_durations(times: np.ndarray) -> list[dict[str, int]]:
-    """Times in [s] -> ROS ``builtin_interfaces/Duration`` dicts through integer nanoseconds."""
-    ns = np.rint(np.asarray(times, dtype=float) * 1e9).astype(np.int64)
-    sec, nanosec = np.divmod(ns, 1_000_000_000)
+    """Times in [s] -> ROS ``builtin_interfaces/Duration`` dicts through integer nanoseconds
+    (``ros_parts``: times outside ``[0, MAX_DURATION]`` are refused, never wrapped)."""
+    sec, nanosec = ros_parts(times)
     return [
         {"sec": int(s), "nanosec": int(n)}
         for s, n in zip(sec.tolist(), nanosec.tolist(), strict=True)
@@ -125,10 +124,13 @@ def trajectory_body(
 
 
 def check_finite(traj: Trajectory) -> None:
-    """Refuse to emit a non-finite number (a planner bug, never a client's fault)."""
+    """Refuse to emit a non-finite number (a planner bug, never a client's fault) or a trajectory
+    longer than ``MAX_DURATION`` (``check_duration``: 422 ``infeasible``). Every trajectory route
+    passes here, so no planned duration escapes the bound, whatever field made it long."""
     for name in ("times", "positions", "velocities", "accelerations"):
         if not np.all(np.isfinite(getattr(traj, name))):
             raise Infeasible(f"planning produced a non-finite {name} value; the plan is refused")
+    check_duration(traj.duration)
 
 
 STREAM_BYTES = 16 * 1024 * 1024
@@ -175,49 +177,8 @@ def current_policy() -> ResponsePolicy:
     return RESPONSE_POLICY.get() or DEFAULT_POLICY
 
 
-class ResponseBudget:
-    """The estimated bytes of the responses this worker holds (thread-safe; one per process)."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self.in_flight = 0
-
-    def reserve(self, nbytes: int, budget: int | None) -> Reservation:
-        """Admit ``nbytes`` [bytes], or raise ``Overloaded`` (503) when others hold the budget.
-
-        A response is admitted while nothing else is in flight even above ``budget``, so the
-        per-request cap, not the budget, bounds one response."""
-        with self._lock:
-            if budget is not None and self.in_flight and self.in_flight + nbytes > budget:
-                raise Overloaded(
-                    f"the worker's response memory budget ({budget} bytes) is in use; "
-                    f"this response needs about {nbytes} bytes",
-                    retry_after_s=1,
-                )
-            self.in_flight += nbytes
-        return Reservation(self, nbytes)
-
-    def _release(self, nbytes: int) -> None:
-        with self._lock:
-            self.in_flight -= nbytes
-
-
-class Reservation:
-    """Bytes held in a ``ResponseBudget`` until ``release()`` (idempotent)."""
-
-    __slots__ = ("__weakref__", "_budget", "nbytes")
-
-    def __init__(self, budget: ResponseBudget, nbytes: int) -> None:
-        self._budget: ResponseBudget | None = budget
-        self.nbytes = nbytes
-
-    def release(self) -> None:
-        budget, self._budget = self._budget, None
-        if budget is not None:
-            budget._release(self.nbytes)
-
-
-RESPONSE_BUDGET = ResponseBudget()
+RESPONSE_BUDGET = MemoryBudget("response memory")
+"""Estimated bytes of the answers this worker holds (``Reservation`` until sent)."""
 
 
 def estimate_bytes(body: Any) -> int:

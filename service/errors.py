@@ -5,8 +5,8 @@ failures add ``s`` (path parameter in [0, 1]); validation failures add ``errors`
 location and a message. No body ever echoes the offending input value back.
 
 Beside ``STATUS`` (planning errors), ``HTTP_CODES`` gives the codes of HTTP-level answers (404
-``not_found``, 405 ``method_not_allowed``, 408 ``request_timeout``, 413 ``too_large``, 503
-``overloaded``); an ``ArithmeticError`` is 422 ``infeasible``; any other exception is 500
+``not_found``, 405 ``method_not_allowed``, 408 ``request_timeout``, 413 ``too_large``, 415
+``unsupported_media_type``, 503 ``overloaded``); an ``ArithmeticError`` is 422 ``infeasible``; any other exception is 500
 ``internal_error``, answered by ``service.middleware.catch_all`` so the connection stays usable.
 The HTTP protocol (``service.middleware.http_protocol``) answers what never reaches the app: 400
 ``bad_request`` (malformed HTTP), 408 (slow headers), 503 (too many connections).
@@ -20,10 +20,12 @@ from typing import Any
 import orjson
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
+from pydantic import BaseModel
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
 from core import errors as ex
+from service.field_paths import request_loc, without_tags
 from service.middleware import metrics
 from service.problem import PROBLEM_MEDIA_TYPE, problem_body
 
@@ -66,48 +68,52 @@ def problem_response(status: int, body: dict[str, Any]) -> Response:
     )
 
 
-def planning_error_body(err: ex.PlanningError) -> tuple[int, dict[str, Any]]:
-    """Status and problem body of a core/robots error (also used inside /v1/compare rows)."""
+def planning_error_body(
+    err: ex.PlanningError, model: type[BaseModel] | None = None
+) -> tuple[int, dict[str, Any]]:
+    """Status and problem body of a core/robots error (also used inside /v1/compare rows).
+
+    ``errors`` names ``err.field`` as a path of the request ``model`` (``request_loc``: within the
+    failing program segment, cut where the model ends); a ``validation`` error always has it (the
+    body as a whole when no field is known)."""
     status = next((code for cls, code in STATUS.items() if isinstance(err, cls)), 422)
     extra: dict[str, Any] = {
         "s": None if err.s is None else _finite_or_none(round(float(err.s), 6)),
         "joint": err.joint,
         "sample": err.sample,
     }
-    if err.field is not None:
-        extra["errors"] = [{"loc": ["body", *err.field], "msg": err.detail}]
+    if err.field is not None or err.code == "validation":
+        segment = err.extra.get("segment")
+        loc = request_loc(model, err.field or (), segment if isinstance(segment, int) else None)
+        extra["errors"] = [{"loc": ["body", *loc], "msg": err.detail}]
     extra.update({k: _finite_or_none(v) for k, v in err.extra.items()})
     return status, problem_body(status, err.code, err.title, err.detail, **extra)
 
 
-def _without_tags(loc: list[int | str], body: Any) -> list[int | str]:
-    """``loc`` without the tags pydantic inserts for a discriminated union (``segments.0.ptp.goal``
-    is ``segments.0.goal`` of the request): walking ``body`` along ``loc``, a string that is not a
-    key of the object there but its ``"type"`` is a tag, not a field."""
-    if not loc or loc[0] != "body":
-        return loc
-    out: list[int | str] = [loc[0]]
-    node = body
-    for part in loc[1:]:
-        if isinstance(node, dict) and part not in node and node.get("type") == part:
-            continue
-        out.append(part)
-        if isinstance(node, dict) and isinstance(part, str):
-            node = node.get(part)
-        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
-            node = node[part]
-        else:
-            node = None
-    return out
+def body_model(request: Request) -> type[BaseModel] | None:
+    """The pydantic model of the matched route's JSON body, or None."""
+    field = getattr(request.scope.get("route"), "body_field", None)
+    model = getattr(getattr(field, "field_info", None), "annotation", None)
+    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
-def _validation_errors(exc: RequestValidationError) -> list[dict[str, Any]]:
-    out = []
+def _validation_errors(
+    exc: RequestValidationError, model: type[BaseModel] | None
+) -> list[dict[str, Any]]:
+    """pydantic's errors with ``loc`` as the request spells it: without the union tags pydantic
+    inserts (``robot.InlineRobot.urdf`` is ``robot.urdf``, ``segments.0.ptp.goal`` is
+    ``segments.0.goal``), an invalid object key named by its object; each once."""
+    out: list[dict[str, Any]] = []
     for e in exc.errors():
         loc = [p if isinstance(p, int | str) else str(p) for p in e.get("loc", ())]
-        loc = _without_tags(loc, exc.body)
-        msg = str(e.get("msg", "invalid value"))
-        out.append({"loc": loc, "msg": msg, "type": str(e.get("type", "value_error"))})
+        if loc[-1:] == ["[key]"]:  # a bad key of an object: name the object, never echo the key
+            loc = loc[:-2]
+        if loc[:1] == ["body"] and model is not None:
+            loc = ["body", *without_tags(model, loc[1:])]
+        row = {"loc": loc, "msg": str(e.get("msg", "invalid value"))}
+        row["type"] = str(e.get("type", "value_error"))
+        if row not in out:
+            out.append(row)
     return out
 
 
@@ -134,14 +140,14 @@ def install(app: FastAPI) -> None:
     document_problem_media_type(app)
 
     @app.exception_handler(ex.PlanningError)
-    async def _planning(_: Request, err: ex.PlanningError) -> Response:
-        status, body = planning_error_body(err)
+    async def _planning(request: Request, err: ex.PlanningError) -> Response:
+        status, body = planning_error_body(err, body_model(request))
         metrics.planning_failure(err.code)
         return problem_response(status, body)
 
     @app.exception_handler(RequestValidationError)
-    async def _validation(_: Request, exc: RequestValidationError) -> Response:
-        errors = _validation_errors(exc)
+    async def _validation(request: Request, exc: RequestValidationError) -> Response:
+        errors = _validation_errors(exc, body_model(request))
         first = errors[0] if errors else {"loc": [], "msg": "invalid request"}
         where = ".".join(str(p) for p in first["loc"][1:] or first["loc"]) or "body"
         detail = f"{where}: {first['msg']}"
@@ -164,8 +170,9 @@ def install(app: FastAPI) -> None:
                 errors=[{"loc": ["body"], "msg": msg}],
             )
             return problem_response(422, body)
+        fallback = "bad_request" if exc.status_code < 500 else "internal_error"
         code, title, detail = HTTP_CODES.get(
-            exc.status_code, ("validation", "HTTP error", str(exc.detail))
+            exc.status_code, (fallback, "HTTP error", str(exc.detail))
         )
         if exc.status_code == 404 and exc.detail not in (None, "Not Found"):
             detail = str(exc.detail)  # a route's own 404 (the playground's static files)
@@ -193,6 +200,10 @@ def install(app: FastAPI) -> None:
     async def _overloaded(_: Request, exc: Overloaded) -> Response:
         return overloaded_response(str(exc), exc.retry_after_s)
 
+    @app.exception_handler(MemoryError)
+    async def _out_of_memory(_: Request, exc: MemoryError) -> Response:
+        return out_of_memory_response(exc)
+
 
 class Overloaded(Exception):
     """The worker cannot take this request now (its response memory budget is spent): 503.
@@ -212,6 +223,11 @@ HTTP_CODES: dict[int, tuple[str, str, str]] = {
     405: ("method_not_allowed", "Method not allowed", "the endpoint does not accept this method"),
     408: ("request_timeout", "Request timeout", "the request was not received in time"),
     413: ("too_large", "Request body too large", "the request body is too large"),
+    415: (
+        "unsupported_media_type",
+        "Unsupported media type",
+        "the request body must be JSON: Content-Type application/json (or application/*+json)",
+    ),
     503: ("overloaded", "Service overloaded", "the service is at capacity; retry later"),
 }
 """HTTP-level errors (no planning involved): status -> (code, title, default detail)."""
@@ -225,6 +241,13 @@ def overloaded_response(detail: str, retry_after_s: int = 1) -> Response:
     response = problem_response(503, body)
     response.headers["Retry-After"] = str(retry_after_s)
     return response
+
+
+def out_of_memory_response(exc: MemoryError) -> Response:
+    """503 ``overloaded`` for a ``MemoryError``: the worker could not allocate what the request
+    needed now (others hold memory, or an address-space limit), which a retry may get; never 500."""
+    log.warning("MemoryError answered as 503 overloaded: %r", exc)
+    return overloaded_response("the worker is out of memory for this request; retry later")
 
 
 def internal_error_response() -> Response:

@@ -16,12 +16,26 @@ from __future__ import annotations
 import numpy as np
 import orjson
 
-from core.trajectory import Trajectory
+from core.trajectory import Trajectory, check_duration
 
 _NUMPY = orjson.OPT_SERIALIZE_NUMPY
 _ROWS = (b',"positions":[', b'],"velocities":[', b'],"accelerations":[')
 _NEXT = b']},{"time_from_start":'
 """Closes a point and opens the next one; the first point opens with ``_NEXT[3:]``."""
+
+
+def ros_parts(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Times ``(n,)`` [s] -> ROS Duration ``sec`` and ``nanosec`` ``(n,)`` int64 arrays, through
+    integer nanoseconds (``nanosec`` in [0, 1e9)).
+
+    Times outside ``[0, MAX_DURATION]`` are refused first (``check_duration``, 422 ``infeasible``):
+    the int64 nanoseconds cannot overflow (from 9.2e9 s they wrapped to negative seconds), and
+    strictly increasing times at least a nanosecond apart stay strictly increasing."""
+    t = np.asarray(times, dtype=np.float64)
+    if t.size:
+        check_duration(float(t.max()))
+        check_duration(float(t.min()))
+    return np.divmod(np.rint(t * 1e9).astype(np.int64), 1_000_000_000)
 
 
 def _items(values: np.ndarray) -> list[bytes]:
@@ -51,8 +65,7 @@ def points_json(
     if n == 0:
         return b"[]"
     if time_format == "ros":
-        ns = np.rint(times * 1e9).astype(np.int64)
-        sec, nanosec = np.divmod(ns, 1_000_000_000)
+        sec, nanosec = ros_parts(times)
         slots: list = [_NEXT + b'{"sec":', _items(sec), b',"nanosec":', _items(nanosec), b"}"]
     else:
         slots = [_NEXT, _items(times)]

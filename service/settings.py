@@ -44,9 +44,16 @@ class Settings(BaseSettings):
         response_budget_bytes: Estimated bytes of responses one worker holds in flight at once in
             [bytes]; a response that would exceed it while others are in flight is 503
             ``overloaded`` with ``Retry-After`` (default 768 MiB).
+        memory_budget_bytes: Estimated working memory of the requests one worker runs at once in
+            [bytes] (planning arrays, samples x joints, and collision-check entries, points x pairs:
+            ``service.admission``); a request that would exceed it while others run is 503
+            ``overloaded`` with ``Retry-After`` (default 1 GiB).
         header_timeout_s: Time a client has to send a request's line and headers in [s], counted
             from its first byte; past it, 408 ``request_timeout`` and the connection is closed.
         body_timeout_s: Longest wait for the next piece of a request body in [s]; past it, 408.
+        body_deadline_s: Longest time for a whole request body in [s], counted from the end of its
+            headers; past it, 408 and the connection is closed (a body trickled a byte at a time
+            never stalls for ``body_timeout_s``).
         write_timeout_s: Longest wait for a client to accept the next piece of a response in [s];
             past it the connection is closed (a client that does not read cannot pin memory).
         keep_alive_timeout_s: Idle time after which a keep-alive connection is closed in [s].
@@ -60,25 +67,27 @@ class Settings(BaseSettings):
 
     model_config = SettingsConfigDict(env_prefix=ENV_PREFIX, frozen=True, extra="forbid")
 
-    max_body_bytes: int = Field(2 * 1024 * 1024, ge=1)
-    max_points: int = Field(100_000, ge=2)
-    time_budget_s: float = Field(10.0, gt=0, allow_inf_nan=False)
+    max_body_bytes: int = Field(default=2 * 1024 * 1024, ge=1)
+    max_points: int = Field(default=100_000, ge=2)
+    time_budget_s: float = Field(default=10.0, gt=0, allow_inf_nan=False)
     log_level: str = "info"
-    urdf_cache_size: int = Field(32, ge=0)
-    workers: int = Field(1, ge=1, le=256)
+    urdf_cache_size: int = Field(default=32, ge=0)
+    workers: int = Field(default=1, ge=1, le=256)
     host: str = "127.0.0.1"
-    port: int = Field(8000, ge=0, le=65535)
+    port: int = Field(default=8000, ge=0, le=65535)
     log_format: str = "json"
     access_log: bool = True
-    max_response_bytes: int = Field(512 * 1024 * 1024, ge=1024)
-    response_budget_bytes: int = Field(768 * 1024 * 1024, ge=1024)
-    header_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
-    body_timeout_s: float = Field(10.0, gt=0, allow_inf_nan=False)
-    write_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
-    keep_alive_timeout_s: float = Field(5.0, gt=0, allow_inf_nan=False)
-    max_connections: int = Field(1000, ge=1)
-    malloc_retain_bytes: int = Field(32 * 1024 * 1024, ge=0, le=1024 * 1024 * 1024)
-    batch_budget_s: float = Field(60.0, gt=0, allow_inf_nan=False)
+    max_response_bytes: int = Field(default=512 * 1024 * 1024, ge=1024)
+    response_budget_bytes: int = Field(default=768 * 1024 * 1024, ge=1024)
+    memory_budget_bytes: int = Field(default=1024 * 1024 * 1024, ge=1024 * 1024)
+    header_timeout_s: float = Field(default=10.0, gt=0, allow_inf_nan=False)
+    body_timeout_s: float = Field(default=10.0, gt=0, allow_inf_nan=False)
+    body_deadline_s: float = Field(default=30.0, gt=0, allow_inf_nan=False)
+    write_timeout_s: float = Field(default=30.0, gt=0, allow_inf_nan=False)
+    keep_alive_timeout_s: float = Field(default=5.0, gt=0, allow_inf_nan=False)
+    max_connections: int = Field(default=1000, ge=1)
+    malloc_retain_bytes: int = Field(default=32 * 1024 * 1024, ge=0, le=1024 * 1024 * 1024)
+    batch_budget_s: float = Field(default=60.0, gt=0, allow_inf_nan=False)
 
     @field_validator("log_level", "log_format", mode="before")
     @classmethod

@@ -25,6 +25,7 @@ from core.errors import InputError, JointLimit, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
 from service import environment
+from service.convert.robot import robot_positions
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
 from service.errors import planning_error_body
 from service.schemas.cartesian import CartesianTaskSpec
@@ -44,26 +45,13 @@ PROFILE_POINTS = 256
 """Most points of each plotting profile in the diagnostics."""
 
 
-def _joint_positions(robot: Kinematics, values: list[float], where: str) -> np.ndarray:
-    """Positions of ``where`` (``"start"`` or ``"goal"``): one per joint, inside the limits."""
-    q = np.asarray(values, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(
-            f"{where}.positions needs {robot.dof} values, one per joint of the robot",
-            field=(where, "positions"),
-        )
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    bad = np.flatnonzero((q < lo) | (q > hi))
-    if bad.size:
-        j = int(bad[0])
-        raise JointLimit(
-            f"{where}.positions[{j}] is outside the position limits of joint "
-            f"'{robot.joint_names[j]}'",
-            field=(where, "positions", j),
-            joint=j,
-            s=0.0 if where == "start" else 1.0,
-        )
-    return q
+def _positions(robot: Kinematics, values: list[float], where: str) -> np.ndarray:
+    """``robot_positions`` of ``where.positions``, a failure at ``s`` 0 (start) or 1 (goal)."""
+    try:
+        return robot_positions(robot, values, (where, "positions"))
+    except JointLimit as err:
+        err.s = 0.0 if where == "start" else 1.0
+        raise
 
 
 def task_from_spec(
@@ -82,10 +70,10 @@ def task_from_spec(
         max_points: Most points of a response (``samples`` over it is 422 ``too_large``).
         environment_field: Where ``spec.environment`` sits in the request (validation errors).
     """
-    q_start = _joint_positions(robot, spec.start.positions, "start")
+    q_start = _positions(robot, spec.start.positions, "start")
     q_goal = None
     if spec.goal.positions is not None:
-        q_goal = _joint_positions(robot, spec.goal.positions, "goal")
+        q_goal = _positions(robot, spec.goal.positions, "goal")
         T_goal = robot.fk(q_goal)
     elif spec.goal.pose is not None:
         T_goal = spec.goal.pose.as_matrix()
@@ -203,7 +191,7 @@ def result_body(
     """The response document: the trajectory, its diagnostics and (bounded deviation) ``knots``."""
     diag = diagnostics(result, method, compute_time_ms)
     knots = knots_body(result, time_format)
-    extra = {} if knots is None else {"knots": knots}
+    extra: dict[str, Any] = {} if knots is None else {"knots": knots}
     return trajectory_body(result.trajectory, diag, time_format, **extra)
 
 

@@ -3,12 +3,19 @@
 ``resolve_robot`` turns a request's ``robot`` into a robot (404 ``unknown_robot`` and 422
 ``invalid_urdf`` come from the registry); ``robot_and_names`` also checks that the request's arrays
 have the robot's number of joints (422 ``validation`` naming the field) and gives the joint names
-(``j1..jn`` without a robot).
+(``j1..jn`` without a robot). ``robot_positions`` is the entry check of a request's joint positions
+(one per joint, inside the position limits), the same for every route that takes them.
 """
 
 from __future__ import annotations
 
-from core.errors import InputError
+from collections.abc import Sequence
+
+import numpy as np
+
+from core.errors import InputError, JointLimit
+from core.kinematics import Kinematics
+from core.limits import JointLimits, check_positions
 from core.trajectory import default_joint_names
 from robots.model import Robot
 from robots.registry import resolve
@@ -37,3 +44,25 @@ def robot_and_names(
             field=field,
         )
     return robot, tuple(robot.joint_names)
+
+
+def robot_positions(
+    robot: Kinematics, values: Sequence[float], field: tuple[str | int, ...]
+) -> np.ndarray:
+    """``values`` as positions of ``robot`` ``(dof,)`` [rad or m]: one per joint (``InputError`` at
+    ``field``) and inside the position limits with the slack of every joint-space check
+    (``core.limits.check_positions``: ``JointLimit`` at ``field + (joint,)``, adding ``joint_name``
+    and its ``limits``)."""
+    q = np.asarray(values, dtype=float)
+    if q.shape != (robot.dof,):
+        where = ".".join(map(str, field))
+        raise InputError(f"{where} needs {robot.dof} values, one per joint", field=field)
+    try:
+        limits = JointLimits(position=robot.position_limits)
+        check_positions(q[None], limits, robot.joint_names, field=field)
+    except JointLimit as err:
+        j = int(err.joint or 0)
+        name, bounds = robot.joint_names[j], robot.position_limits[j].tolist()
+        err.extra.update({"joint_name": name, "limits": bounds})
+        raise
+    return q

@@ -3,7 +3,8 @@
 Starlette's ``ServerErrorMiddleware`` sends its 500 and then re-raises, and uvicorn answers an
 exception from the app by closing the transport: the client's keep-alive connection was reset
 without ``Connection: close`` and its next request failed. Here the exception is logged (with the
-request id) and answered, and the app returns normally, so the connection stays usable. An
+request id) and answered, and the app returns normally, so the connection stays usable; a
+``MemoryError`` is 503 ``overloaded`` with ``Retry-After``, never 500 (a retry may find memory). An
 exception after the response has started cannot be answered; it is re-raised and uvicorn closes
 the connection, which is the only honest end of a half-sent body.
 """
@@ -14,7 +15,7 @@ import logging
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service.errors import internal_error_response
+from service.errors import internal_error_response, out_of_memory_response
 
 log = logging.getLogger("service.errors")
 
@@ -37,6 +38,10 @@ class CatchAllMiddleware:
 
         try:
             await self.app(scope, receive, send_tracking)
+        except MemoryError as exc:  # out of memory anywhere (a middleware too): 503, never 500
+            if started:
+                raise
+            await out_of_memory_response(exc)(scope, receive, send)
         except Exception as exc:
             if started:
                 raise

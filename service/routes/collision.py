@@ -2,6 +2,8 @@
 
 Thin routes: schema -> ``robots.collision`` (coal through pinocchio's ``GeometryModel``) -> the closest
 pairs (per pair of names, closest first, at most 20) with their witness points in the base frame.
+The positions pass the entry checks of every planning route (422 ``joint_limit`` outside the
+limits) and the request has the planning routes' deadline (422 ``time_budget_exceeded``).
 """
 
 from __future__ import annotations
@@ -9,15 +11,15 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-from fastapi import APIRouter
+from fastapi import APIRouter, Depends
 from pydantic import Field
 from starlette.responses import Response
 
-from core.errors import InputError
+from core.budget import Deadline
 from robots import registry
 from robots.collision import robot_setup
-from service import environment
+from service import deps, environment
+from service.convert.robot import robot_positions
 from service.encoding import json_response
 from service.schemas.common import PROBLEM_RESPONSES, JointPositions, RobotRef, StrictModel
 from service.schemas.environment import Environment
@@ -49,13 +51,17 @@ class DistanceResponse(StrictModel):
 RESPONSES: dict[int | str, dict[str, Any]] = {200: {"model": DistanceResponse}, **PROBLEM_RESPONSES}
 
 
-def _distance(robot_ref: Any, body: DistanceRequest) -> Response:
+def _distance(robot_ref: Any, body: DistanceRequest, deadline: Deadline) -> Response:
+    """The closest pairs at ``body.positions``, after the entry checks of every planning route
+    (``robot_positions``: one per joint, inside the limits) and within the request's deadline,
+    checked between the stages (the robot, its checker, the distances)."""
     robot = registry.resolve(robot_ref)
-    q = np.asarray(body.positions, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(f"positions needs {robot.dof} values", field=("positions",))
+    q = robot_positions(robot, body.positions, ("positions",))
+    deadline.check("distance: loading the robot")
     check = environment.checker(robot, body.environment, environment.inline_urdf(robot_ref))
+    deadline.check("distance: building the collision model")
     rows = [] if check is None else check.closest_pairs(q, MAX_PAIRS)
+    deadline.check("distance: computing the distances")
     pairs = [
         {"links": list(n), "distance": d, "points": [p1.tolist(), p2.tolist()]}
         for n, d, p1, p2 in rows
@@ -69,8 +75,10 @@ def _distance(robot_ref: Any, body: DistanceRequest) -> Response:
     responses=RESPONSES,
     summary="Distances between a registered robot's links and the obstacles at one configuration",
 )
-def robot_distance(name: str, body: DistanceRequest) -> Response:
-    return _distance(name, body)
+def robot_distance(
+    name: str, body: DistanceRequest, deadline: Deadline = Depends(deps.request_deadline)
+) -> Response:
+    return _distance(name, body, deadline)
 
 
 @router.post(
@@ -78,8 +86,10 @@ def robot_distance(name: str, body: DistanceRequest) -> Response:
     responses=RESPONSES,
     summary="Distances at one configuration for a robot given in the body (name or inline URDF)",
 )
-def distance(body: InlineDistanceRequest) -> Response:
-    return _distance(body.robot, body)
+def distance(
+    body: InlineDistanceRequest, deadline: Deadline = Depends(deps.request_deadline)
+) -> Response:
+    return _distance(body.robot, body, deadline)
 
 
 def collision_description(robot_ref: Any) -> dict[str, Any]:

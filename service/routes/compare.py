@@ -25,10 +25,13 @@ from service import deps, environment
 from service.convert import cartesian as convert
 from service.encoding import json_response
 from service.errors import planning_error_body
+from service.field_paths import nest
 from service.schemas.common import PROBLEM_RESPONSES, TIME_FORMAT_QUERY, TimeFormat
 from service.schemas.compare import CompareRequest, CompareResponse
 
 router = APIRouter(prefix="/v1", tags=["compare"])
+TASK = ("task",)
+"""Where the Cartesian request's fields are in this body."""
 
 RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {"model": CompareResponse, "description": "One row per method"}
@@ -53,11 +56,19 @@ def compare(
     deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
-    robot = registry.resolve(body.task.robot)
     methods = body.methods or list(METHODS)
-    task = convert.task_from_spec(
-        body.task, robot, deadline, settings.max_points, environment_field=("task", "environment")
-    )
+    try:
+        robot = registry.resolve(body.task.robot)
+        task = convert.task_from_spec(
+            body.task,
+            robot,
+            deadline,
+            settings.max_points,
+            environment_field=("task", "environment"),
+        )
+    except PlanningError as err:
+        nest(err, TASK)  # the task's fields are at task.* of this body
+        raise
     rows = []
     for method in methods:
         started = time.perf_counter()
@@ -70,7 +81,7 @@ def compare(
                 replan=functools.partial(_replan, method=method, max_points=settings.max_points),
             )  # fmt: skip
         except PlanningError as err:
-            _, problem = planning_error_body(err)
+            _, problem = planning_error_body(nest(err, TASK), CompareRequest)
             elapsed = (time.perf_counter() - started) * 1e3
             diagnostics = {"method": method, "compute_time_ms": elapsed, "code": err.code}
             rows.append(

@@ -15,6 +15,7 @@ from robots import registry
 from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
 from service import deps, environment
+from service.convert.robot import robot_positions
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
@@ -48,24 +49,6 @@ def _summary(robot: Robot) -> dict:
         "tip_frame": robot.tip_frame,
         "task_space": robot.task_space,
     }
-
-
-def _check_positions(robot: Robot, positions: list[float], field: str) -> np.ndarray:
-    """Length equal to the robot's dof (422 validation), values inside the limits (422 joint_limit)."""
-    q = np.asarray(positions, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(f"{field} needs {robot.dof} values, one per joint", field=(field,))
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    bad = np.flatnonzero((q < lo) | (q > hi))
-    if bad.size:
-        j = int(bad[0])
-        raise JointLimit(
-            f"{field}[{j}] is outside the position limits of joint '{robot.joint_names[j]}'",
-            field=(field, j),
-            joint=j,
-            extra={"joint_name": robot.joint_names[j], "limits": robot.position_limits[j].tolist()},
-        )
-    return q
 
 
 @router.get("/v1/robots", response_model=list[RobotSummary], summary="Registered robots")
@@ -138,7 +121,7 @@ def get_robot(name: str = RobotName) -> RobotDetail:
 
 
 def _fk(robot: Robot, body: FKRequest) -> FKResponse:
-    q = _check_positions(robot, body.positions, "positions")
+    q = robot_positions(robot, body.positions, ("positions",))
     if body.frame is None:
         T, J = robot.fk(q), robot.jacobian(q)
     else:

@@ -49,6 +49,7 @@ from core.cartesian.task import CartesianTask
 from core.errors import TimeBudgetExceeded
 from robots import registry
 from service import encoding
+from service.admission import MemoryBudget
 from service.app import create_app
 from service.errors import Overloaded
 from service.settings import Settings
@@ -326,7 +327,7 @@ def test_a_response_over_the_workers_budget_is_503_with_retry_after() -> None:
 
 
 def test_the_budget_admits_in_parallel_exactly_what_fits() -> None:
-    budget = encoding.ResponseBudget()
+    budget = MemoryBudget()
     first = budget.reserve(600, 1000)
     with pytest.raises(Overloaded):
         budget.reserve(500, 1000)

@@ -132,9 +132,11 @@ def test_bad_circle_geometry_is_validation_at_path(client) -> None:
     ]
     for path, loc in cases:
         for url, body in ((URL, _request(path)), ("/v1/compare", None)):
-            if body is None:
+            where = loc
+            if body is None:  # a compare body holds the Cartesian request at task
                 task = _request(path)
                 task.pop("method")
                 body = {"task": task}
+                where = ["body", "task", *loc[1:]]
             problem = _problem(client.post(url, json=body))
-            assert problem["errors"][0]["loc"] == loc, (url, path, problem)
+            assert problem["errors"][0]["loc"] == where, (url, path, problem)

@@ -99,8 +99,8 @@ def planning_error_classes() -> set[type[core_errors.PlanningError]]:
 
 
 def literal_service_codes() -> set[str]:
-    """Codes the service writes directly, in service/**/*.py (parsed, not grepped): the second
-    argument of every ``problem_body(...)`` call, every string a variable named ``code`` is given,
+    """Codes the service writes directly, in service/**/*.py (parsed, not grepped): the code
+    argument of every ``problem_body(...)``, ``problem_bytes(...)`` and ``raw_problem(...)`` call, every string a variable named ``code`` is given,
     and the codes of a module-level table named ``*CODES*`` (``{404: ("not_found", ...)}``)."""
     codes: set[str] = set()
     for path in (ROOT / "service").rglob("*.py"):
@@ -108,8 +108,9 @@ def literal_service_codes() -> set[str]:
         for node in ast.walk(tree):
             if isinstance(node, ast.Call):
                 name = getattr(node.func, "id", getattr(node.func, "attr", None))
-                if name == "problem_body" and len(node.args) >= 2:
-                    arg = node.args[1]
+                position = {"problem_body": 1, "problem_bytes": 1, "raw_problem": 2}.get(name)
+                if position is not None and len(node.args) > position:
+                    arg = node.args[position]
                     if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
                         codes.add(arg.value)
             elif isinstance(node, ast.Assign | ast.AnnAssign) and node.value is not None:
@@ -239,7 +240,7 @@ def test_every_error_class_code_is_documented_with_its_status() -> None:
 
 def test_every_code_the_service_writes_is_documented() -> None:
     literal = literal_service_codes()
-    assert {"validation", "too_large", "not_ready"} <= literal, literal  # the scan found them
+    assert {"validation", "too_large", "not_ready", "bad_request"} <= literal, literal  # found
     missing = sorted(literal - documented_codes(api_text()).keys())
     assert not missing, f"docs/api.md has no row for the codes: {missing}"
 

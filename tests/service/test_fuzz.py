@@ -5,6 +5,8 @@ examples, boundary values ("coverage" phase) and random positive and negative da
 phase), plus undeclared methods. Every response is checked by schemathesis' built-in checks: no
 5xx, a documented status code, a documented content type (``application/problem+json`` for errors),
 a body that matches the documented schema, negative data rejected with a 4xx, ``Allow`` on a 405.
+On top of those, every error body is checked against docs/api.md (``documented_problem``: a
+documented code and status, ``errors`` on every ``validation``, each ``loc`` a field of the request).
 
 One built-in check is left out, with reason: ``positive_data_acceptance`` expects every
 schema-valid request to succeed, but JSON Schema cannot express the rules that make a valid request
@@ -33,6 +35,11 @@ import schemathesis
 
 from service.app import create_app
 from service.settings import Settings
+from tests.service.helpers import documented_problem
+from tests.service.test_docs import api_text, documented_codes
+from tests.service.test_error_bodies import model_of
+
+CODES = documented_codes(api_text())
 
 FUZZ_BUDGET_S = 1.0
 """Planning budget [s] of the fuzzed app: a generated Cartesian request can never be slow."""
@@ -71,6 +78,10 @@ def _call(case: Any, run: str) -> None:
     STATUSES[(label, response.status_code)] += 1
     SLOWEST[label] = max(SLOWEST.get(label, 0.0), elapsed)
     case.validate_response(response, excluded_checks=EXCLUDED_CHECKS)
+    if response.status_code >= 400:  # issue 26.10: every error body keeps docs/api.md's table
+        content_type = response.headers.get("content-type") or [""]
+        model = model_of(case.formatted_path) if case.method.upper() == "POST" else None
+        documented_problem(response.status_code, content_type[0], response.json(), CODES, model)
 
 
 @schema.parametrize()

@@ -218,13 +218,35 @@ def test_invalid_utf8_and_malformed_json(client: TestClient, url: str) -> None:
 
 @pytest.mark.parametrize("url", URLS)
 def test_wrong_or_missing_content_type(client: TestClient, url: str) -> None:
+    """A body that is not declared JSON is 415 ``unsupported_media_type`` naming the expected type
+    (was 422 ``validation`` about the body, or parsed as JSON without the header); a valid body
+    under ``application/json`` with parameters or under ``application/*+json`` is accepted."""
     valid = json.dumps(VALID[url]).encode()
-    for content_type in ("text/plain", "application/x-www-form-urlencoded", "application/xml"):
-        hostile(post(client, url, valid, {"content-type": content_type}))
     form = f"positions={MARKER}".encode()
-    hostile(post(client, url, form, {"content-type": "application/x-www-form-urlencoded"}))
-    multipart = {"content-type": "multipart/form-data; boundary=zz"}
-    hostile(post(client, url, b"--zz\r\n\r\n" + MARKER.encode() + b"\r\n--zz--\r\n", multipart))
+    multipart = b"--zz\r\n\r\n" + MARKER.encode() + b"\r\n--zz--\r\n"
+    for content, content_type in (
+        (valid, "text/plain"),
+        (valid, "application/x-www-form-urlencoded"),
+        (valid, "application/xml"),
+        (valid, "application/jsonx"),
+        (valid, "application/+json"),
+        (valid, "text/json"),
+        (valid, ""),
+        (form, "application/x-www-form-urlencoded"),
+        (multipart, "multipart/form-data; boundary=zz"),
+    ):
+        body = hostile(post(client, url, content, {"content-type": content_type}), (415,))
+        assert body["code"] == "unsupported_media_type" and "application/json" in body["detail"]
+    missing = client.post(url, content=valid)
+    assert "content-type" not in missing.request.headers
+    assert hostile(missing, (415,))["code"] == "unsupported_media_type"
+    assert missing.headers["accept-post"] == "application/json"
+    for content_type in (
+        "application/json; charset=utf-8",
+        "Application/JSON",
+        "application/problem+json",
+    ):
+        assert post(client, url, valid, {"content-type": content_type}).status_code == 200
 
 
 @pytest.mark.parametrize("url", URLS)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import select
 import socket
 import threading
 import time
@@ -23,6 +24,7 @@ from uvicorn.importer import import_from_string
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from service import encoding
+from service.admission import MemoryBudget, Reservation
 from service.app import create_app
 from service.middleware.http_protocol import PROTOCOL, ServiceHTTPProtocol, enable_nodelay
 from service.settings import Settings
@@ -261,6 +263,35 @@ def test_a_client_that_sends_its_body_slowly_gets_408(running: Running) -> None:
         assert closed(sock)
 
 
+def test_a_body_trickled_byte_by_byte_is_cut_off_at_the_body_deadline() -> None:
+    """Issue 26.4: one byte every 0.1 s never stalls for the 0.5 s piece timeout, but the whole
+    body must arrive within ``TRAJ_BODY_DEADLINE_S`` (1 s here) of the headers: then 408
+    problem+json and the connection is closed (it was held for as long as the client kept
+    trickling)."""
+    server = Running(
+        Settings(access_log=False, body_timeout_s=0.5, body_deadline_s=1.0, write_timeout_s=0.5)
+    )
+    try:
+        with server.connect() as sock:
+            body = json.dumps(QUINTIC_6).encode()
+            head = request_bytes("POST", "/v1/trajectories/joint", body)[: -len(body)]
+            sock.sendall(head)
+            started = time.perf_counter()
+            for byte in body:  # 1.5 s of trickle, one byte each 0.1 s, if the server let it
+                if select.select([sock], [], [], 0.1)[0]:
+                    break  # the server answered
+                sock.sendall(bytes([byte]))
+            elapsed = time.perf_counter() - started
+            status, headers, answer = read_response(sock)
+            assert status == 408 and 0.9 < elapsed < 1.4, (status, elapsed)
+            assert headers["connection"] == "close"
+            doc = assert_problem(status, headers, answer, "request_timeout")
+            assert "in full within 1 s" in doc["detail"]
+            assert closed(sock)
+    finally:
+        server.stop()
+
+
 def test_a_client_that_does_not_read_is_disconnected(running: Running) -> None:
     body = json.dumps(QUINTIC_6).encode()
     with httpx.Client(base_url=running.url) as client:  # the full answer, for its size
@@ -349,11 +380,11 @@ def test_concurrent_large_answers_never_exceed_the_workers_budget(
     100,000-point answer (about 30 MB estimated each) from a worker whose budget holds two. Every
     answer is a 200 or a 503 ``overloaded``, the bytes in flight never exceed the budget, and all
     of them are returned at the end."""
-    budget = encoding.ResponseBudget()
+    budget = MemoryBudget()
     peak = 0
     reserve = budget.reserve
 
-    def tracking(nbytes: int, limit: int | None) -> encoding.Reservation:
+    def tracking(nbytes: int, limit: int | None) -> Reservation:
         nonlocal peak
         reservation = reserve(nbytes, limit)
         peak = max(peak, budget.in_flight)

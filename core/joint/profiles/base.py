@@ -139,7 +139,7 @@ class DurationProfileKind(ProfileKind):
     ) -> Profile:
         """Without ``duration`` the shortest one within ``limits``; with it, a plan over known
         limits is ``JointRateLimit`` naming the shortest feasible duration."""
-        amax = np.inf if limits.acceleration is None else limits.acceleration  # ramps only
+        amax = np.asarray(np.inf if limits.acceleration is None else limits.acceleration)  # ramps
         if duration is None:
             shortest = self.shortest_duration(motion, limits)
             return self.build(
@@ -149,19 +149,34 @@ class DurationProfileKind(ProfileKind):
             raise InputError("duration must be > 0 s and at most 1e5 s", field=("duration",))
         profile = self.build(motion, duration, amax)
         if limits.velocity is not None or limits.acceleration is not None:
-            check_rates(
-                **self.held(profile.peaks()),
-                limits=limits,
-                joint_names=joint_names,
-                hint=lambda: self._shortest_hint(motion, limits),
-            )
+            try:
+                held = self.held(profile.peaks())
+                check_rates(
+                    held["peak_velocity"],
+                    held["peak_acceleration"],
+                    limits,
+                    joint_names,
+                    peak_jerk=held["peak_jerk"],
+                )
+            except JointRateLimit as err:
+                raise self._with_min_duration(err, motion, limits) from None
         return profile
 
-    def _shortest_hint(self, motion: PointToPoint, limits: JointLimits) -> str:
+    def _with_min_duration(
+        self, err: JointRateLimit, motion: PointToPoint, limits: JointLimits
+    ) -> JointRateLimit:
+        """``err`` at ``duration``, naming the shortest feasible duration in its detail and as
+        ``min_duration`` [s] (the key every problem body uses for it) when there is one."""
         try:
             shortest = max(self.shortest_duration(motion, limits), durations.MIN_DURATION)
         except (InputError, JointRateLimit):
-            return ""
-        if not shortest <= durations.MAX_DURATION:
-            return f"; within the limits it would take more than {durations.MAX_DURATION:g} s"
-        return f"; the shortest {self.name} duration within the limits is {shortest:.6g} s"
+            shortest = None
+        extra = dict(err.extra)
+        if shortest is None:
+            hint = ""
+        elif not shortest <= durations.MAX_DURATION:
+            hint = f"; within the limits it would take more than {durations.MAX_DURATION:g} s"
+        else:
+            hint = f"; the shortest {self.name} duration within the limits is {shortest:.6g} s"
+            extra["min_duration"] = shortest
+        return JointRateLimit(err.detail + hint, field=("duration",), joint=err.joint, extra=extra)
