@@ -123,6 +123,10 @@ class Robot:
 
     # --- description --------------------------------------------------------------------------
     @property
+    def arm(self) -> Robot:
+        return self
+
+    @property
     def name(self) -> str:
         return self._name
 

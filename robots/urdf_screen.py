@@ -91,7 +91,10 @@ def _name(s: str) -> str:
     return s if len(s) <= 64 else s[:61] + "..."
 
 
-def _floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> tuple[float, ...]:
+def floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> tuple[float, ...]:
+    """``n`` finite numbers from a URDF attribute (``default`` when absent); ``InvalidURDF`` naming
+    ``what`` otherwise. The one parser of numeric URDF attributes (joints here, ``<collision>``
+    elements in ``robots.geometry.urdf``)."""
     if text is None:
         return default
     try:
@@ -142,8 +145,8 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
     """Checked, minimal copy of one <joint>; returns it and its type after conversion."""
     where = f"joint '{_name(jname)}'"
     org = j.find("origin")
-    xyz = _floats(None if org is None else org.get("xyz"), 3, f"{where} origin xyz", (0.0,) * 3)
-    rpy = _floats(None if org is None else org.get("rpy"), 3, f"{where} origin rpy", (0.0,) * 3)
+    xyz = floats(None if org is None else org.get("xyz"), 3, f"{where} origin xyz", (0.0,) * 3)
+    rpy = floats(None if org is None else org.get("rpy"), 3, f"{where} origin rpy", (0.0,) * 3)
     if max(abs(v) for v in xyz + rpy) > MAX_COORDINATE:
         raise InvalidURDF(f"{where} origin is beyond 1e4 (m or rad)", field=FIELD)
     out = ET.Element("joint", name=jname, type="revolute" if jtype == "continuous" else jtype)
@@ -153,7 +156,7 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
     if jtype == "fixed":
         return out, jtype
     ax = j.find("axis")
-    axis = _floats(None if ax is None else ax.get("xyz"), 3, f"{where} axis", (1.0, 0.0, 0.0))
+    axis = floats(None if ax is None else ax.get("xyz"), 3, f"{where} axis", (1.0, 0.0, 0.0))
     norm = math.sqrt(sum(v * v for v in axis))
     if not 1e-9 < norm <= MAX_COORDINATE:
         raise InvalidURDF(f"{where} has a zero or oversized axis", field=FIELD)
@@ -167,8 +170,8 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
         if lim is None:
             raise InvalidURDF(f"{where} ({jtype}) needs a <limit> element", field=FIELD)
         # the URDF specification's defaults (urdfdom, pinocchio): a missing bound is 0
-        (lower,) = _floats(lim.get("lower"), 1, f"{where} lower limit", (0.0,))
-        (upper,) = _floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
+        (lower,) = floats(lim.get("lower"), 1, f"{where} lower limit", (0.0,))
+        (upper,) = floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
         lower, upper = max(lower, -MAX_COORDINATE), min(upper, MAX_COORDINATE)
     ET.SubElement(
         out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity), effort="0"
@@ -182,7 +185,7 @@ def _rate_limit(lim: ET.Element | None, attribute: str, where: str) -> float:
     velocity limits are clamped to 1e4 by the registry, as before)."""
     if lim is None or lim.get(attribute) is None:
         return 0.0
-    (value,) = _floats(lim.get(attribute), 1, f"{where} {attribute} limit", (0.0,))
+    (value,) = floats(lim.get(attribute), 1, f"{where} {attribute} limit", (0.0,))
     if value < 0:
         raise InvalidURDF(f"{where} has a negative {attribute} limit", field=FIELD)
     if 0.0 < value < MIN_RATE_LIMIT:

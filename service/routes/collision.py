@@ -16,7 +16,7 @@ from starlette.responses import Response
 
 from core.errors import InputError
 from robots import registry
-from robots.collision import robot_setup
+from robots.collision import link_shapes, robot_setup
 from service import environment
 from service.encoding import json_response
 from service.schemas.common import PROBLEM_RESPONSES, JointPositions, RobotRef, StrictModel
@@ -83,23 +83,15 @@ def distance(body: InlineDistanceRequest) -> Response:
 
 
 def collision_description(robot_ref: Any) -> dict[str, Any]:
-    """``collision_geometry`` and ``allowed_self_collisions`` of a robot, for its GET description
-    (the robots route belongs to another team: its owner adds these two keys)."""
+    """``collision_geometry`` and ``allowed_self_collisions`` of a robot, as in its description:
+    each shape as the check uses it (``robots.collision.link_shapes``), in its link's frame."""
     robot = registry.resolve(robot_ref)
     geometry, allowed = robot_setup(robot, environment.inline_urdf(robot_ref))
-    capsules = [
-        {
-            "link": link,
-            "type": "capsule",
-            "a": geometry.a[i].tolist(),
-            "b": geometry.b[i].tolist(),
-            "radius": float(geometry.radius[i]),
-            "frame": "joint",
-            "joint": robot.model.names[int(geometry.joints[i])],
-        }
-        for i, link in enumerate(geometry.links)
+    shapes = [
+        {"link": link, "shape": shape, "origin": T.tolist()}
+        for link, shape, T in link_shapes(robot, geometry)
     ]
     return {
-        "collision_geometry": capsules,
+        "collision_geometry": shapes,
         "allowed_self_collisions": sorted(sorted(p) for p in allowed),
     }

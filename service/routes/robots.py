@@ -74,19 +74,12 @@ def list_robots() -> list[dict]:
 
 
 def _collision(robot: Robot, urdf: str | None) -> dict:
-    """``collision_geometry`` and ``allowed_self_collisions`` (``robots.collision``)."""
+    """``collision_geometry`` (the shapes as the check uses them) and ``allowed_self_collisions``
+    (``robots.collision``)."""
     geometry, allowed = robot_setup(robot, urdf)
     shapes = [
-        CollisionShape(
-            link=link,
-            shape=(
-                {"type": "capsule", "radius": radius, "length": length}
-                if length > 0
-                else {"type": "sphere", "radius": radius}
-            ),
-            origin=Pose.from_matrix(T),
-        )
-        for link, radius, length, T in link_shapes(robot, geometry)
+        CollisionShape(link=link, shape=shape, origin=Pose.from_matrix(T))
+        for link, shape, T in link_shapes(robot, geometry)
     ]
     return {
         "collision_geometry": shapes,
