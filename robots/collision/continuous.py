@@ -43,7 +43,7 @@ MOTION_TOLERANCE = 1e-7
 bound is still below the threshold, else settled."""
 MIN_PIECE = 2.0**-40
 """Smallest share of one returned segment an item may cover (ends the halving in any case)."""
-KEY_STEP = 16
+KEY_STEP = 32
 """The check first evaluates every KEY_STEP-th returned point, then refines."""
 MAX_KEY_ENTRIES = 5_000_000
 """Most (key point, pair) entries of one continuous check: points x pairs / KEY_STEP (TooLarge: a
@@ -64,7 +64,7 @@ ITEM_BYTES = 56
 ENTRY_BYTES = 2048
 """Bytes of working memory per entry of a distance call, at most (measured peak: 1.4 KiB for box and
 cylinder entries, the golden-section search's arrays and one configuration's joint placements)."""
-MAX_DEPTH = 4 + 41
+MAX_DEPTH = int(math.log2(KEY_STEP)) + 41
 """Deepest split of a starting item: log2(KEY_STEP) returned points, then ``MIN_PIECE`` halvings."""
 CHECK_WORKING_BYTES = (
     (WINDOW_ITEMS + (MAX_DEPTH + 2) * STEP_CHILDREN) * ITEM_BYTES

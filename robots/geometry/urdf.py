@@ -44,7 +44,7 @@ def _origin(el: ET.Element | None, where: str) -> np.ndarray:
 def _size(el: ET.Element, attr: str, where: str) -> float:
     (v,) = floats(el.get(attr), 1, f"{where} {el.tag} {attr}", (math.nan,))
     if not (math.isfinite(v) and 0 <= v <= MAX_SIZE):
-        raise InvalidURDF(f"{where} {el.tag} needs {attr} in [0, 100] m", field=FIELD)
+        raise InvalidURDF(f"{where} {el.tag} {attr} must be in [0, 100] m", field=FIELD)
     return v
 
 
@@ -61,7 +61,7 @@ def _shape(shape: ET.Element, link: str, T: np.ndarray, where: str) -> LinkShape
     if shape.tag == "box":
         size = floats(shape.get("size"), 3, f"{where} box size", (math.nan,) * 3)
         if not all(math.isfinite(v) and 0 <= v <= MAX_SIZE for v in size):
-            raise InvalidURDF(f"{where} box needs 3 sizes in [0, 100] m", field=FIELD)
+            raise InvalidURDF(f"{where} box size must be 3 numbers in [0, 100] m", field=FIELD)
         if max(size) == 0:
             return None
         return Box(link, tuple(max(v, MIN_EXTENT) for v in size), T)  # type: ignore[arg-type]

@@ -407,7 +407,8 @@ def test_a_check_over_the_size_bound_is_too_large(monkeypatch) -> None:
     geometry, allowed = robot_setup(robot)
     check = CollisionChecker(robot, geometry, every_shape(), allowed_self=allowed)
     qs = np.linspace(robot.home, robot.home + 0.1, 1000)
-    monkeypatch.setattr(continuous, "MAX_KEY_ENTRIES", 63 * check.n_pairs - 1)
+    keys = (1000 - 1) // continuous.KEY_STEP + 2  # every KEY_STEP-th point and the last
+    monkeypatch.setattr(continuous, "MAX_KEY_ENTRIES", keys * check.n_pairs - 1)
     with pytest.raises(TooLarge) as info:
         check.check_path(np.linspace(0, 1, 1000), qs)
     assert info.value.field == ("environment",)
