@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import math
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.kinematics import Kinematics as Robot
 from robots.ik import (
     POLISH_BELOW,
     IKSolutions,
@@ -38,6 +38,9 @@ from robots.ik import (
     ik_all,
     solutions,
 )
+
+if TYPE_CHECKING:  # robots.model imports this module
+    from robots.model import Robot
 
 TWO_PI = 2.0 * math.pi
 HELD_VALUES = 128

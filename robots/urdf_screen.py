@@ -150,8 +150,9 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
     if max(abs(v) for v in xyz + rpy) > MAX_COORDINATE:
         raise InvalidURDF(f"{where} origin is beyond 1e4 (m or rad)", field=FIELD)
     out = ET.Element("joint", name=jname, type="revolute" if jtype == "continuous" else jtype)
-    ET.SubElement(out, "parent", link=j.find("parent").get("link"))  # type: ignore[union-attr]
-    ET.SubElement(out, "child", link=j.find("child").get("link"))  # type: ignore[union-attr]
+    for end in ("parent", "child"):  # both checked to name existing links by the caller
+        element = j.find(end)
+        ET.SubElement(out, end, link=(element.get("link") if element is not None else None) or "")
     ET.SubElement(out, "origin", xyz=" ".join(map(repr, xyz)), rpy=" ".join(map(repr, rpy)))
     if jtype == "fixed":
         return out, jtype
@@ -328,7 +329,10 @@ def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> Scr
         path_to_root(link)
     available = {"links": links[: 2 * MAX_JOINTS]}
     base_frame = roots[0] if base_frame is None else base_frame
-    frames = (("base_frame", base_frame), ("tip_frame", tip_frame))
+    frames: tuple[tuple[str, str | None], ...] = (
+        ("base_frame", base_frame),
+        ("tip_frame", tip_frame),
+    )
     if tip_frame is not None:  # both given: the tip is reported first, as it always was
         frames = frames[::-1]
     for fname, frame in frames:

@@ -18,8 +18,16 @@ from core.errors import InputError
 from robots import registry
 from robots.collision import link_shapes, robot_setup
 from service import environment
+from service.convert.robot import with_tool
 from service.encoding import json_response
-from service.schemas.common import PROBLEM_RESPONSES, JointPositions, RobotRef, StrictModel
+from service.schemas.common import (
+    PROBLEM_RESPONSES,
+    TOOL_FIELD,
+    JointPositions,
+    RobotRef,
+    StrictModel,
+    Tool,
+)
 from service.schemas.environment import Environment
 
 router = APIRouter(prefix="/v1", tags=["collision"])
@@ -28,6 +36,7 @@ MAX_PAIRS = 20
 
 class DistanceRequest(StrictModel):
     positions: JointPositions = Field(description="Joint positions [rad or m], one per joint.")
+    tool: Tool | None = TOOL_FIELD
     environment: Environment | None = Field(default=None, description="Obstacles and options.")
 
 
@@ -50,7 +59,7 @@ RESPONSES: dict[int | str, dict[str, Any]] = {200: {"model": DistanceResponse}, 
 
 
 def _distance(robot_ref: Any, body: DistanceRequest) -> Response:
-    robot = registry.resolve(robot_ref)
+    robot = with_tool(registry.resolve(robot_ref), body.tool)  # checked; no geometry of its own
     q = np.asarray(body.positions, dtype=float)
     if q.shape != (robot.dof,):
         raise InputError(f"positions needs {robot.dof} values", field=("positions",))

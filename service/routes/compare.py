@@ -23,6 +23,7 @@ from core.errors import PlanningError
 from robots import registry
 from service import deps, environment
 from service.convert import cartesian as convert
+from service.convert.robot import with_tool
 from service.encoding import json_response
 from service.errors import planning_error_body
 from service.schemas.common import PROBLEM_RESPONSES, TIME_FORMAT_QUERY, TimeFormat
@@ -53,7 +54,7 @@ def compare(
     deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
-    robot = registry.resolve(body.task.robot)
+    robot = with_tool(registry.resolve(body.task.robot), body.task.tool)
     methods = body.methods or list(METHODS)
     task = convert.task_from_spec(
         body.task, robot, deadline, settings.max_points, environment_field=("task", "environment")

@@ -6,7 +6,15 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, StringConstraints
 
-from service.schemas.common import JointPositions, Pose, Position, RobotRef, StrictModel
+from service.schemas.common import (
+    TOOL_FIELD,
+    JointPositions,
+    Pose,
+    Position,
+    RobotRef,
+    StrictModel,
+    Tool,
+)
 from service.schemas.environment import Box, CapsuleShape, Cylinder, Sphere
 
 NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
@@ -90,6 +98,7 @@ class RobotDetail(RobotSummary):
 
 class FKRequest(StrictModel):
     positions: JointPositions
+    tool: Tool | None = TOOL_FIELD
     frame: str | None = FrameName
     frames: bool = Field(
         default=False,
@@ -125,6 +134,7 @@ class FKResponse(BaseModel):
 
 class IKRequest(StrictModel):
     pose: Pose
+    tool: Tool | None = TOOL_FIELD
     seed: JointPositions | None = Field(
         default=None,
         description="Start of the search [rad or m] (default the robot's home); the solution nearest "
@@ -199,3 +209,4 @@ class InlineIKRequest(IKRequest):
 
 class DescribeRequest(StrictModel):
     robot: RobotRef
+    tool: Tool | None = TOOL_FIELD
