@@ -20,7 +20,6 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,9 +29,7 @@ from robots.ik_numeric import (
     planar_2r_geometry,
     search,  # noqa: F401  (re-export for existing callers)
 )
-
-if TYPE_CHECKING:  # robots.model imports this module
-    from robots.model import Robot
+from robots.ik_robot import IKRobot as Robot
 
 TWO_PI = 2.0 * math.pi
 VERIFY_POSITION = 1e-9

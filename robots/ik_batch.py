@@ -5,7 +5,6 @@ labels and choices), pose by pose otherwise."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,9 +22,7 @@ from robots.ik import (
     ik_all,
 )
 from robots.ik_analytic import AnalyticIK
-
-if TYPE_CHECKING:
-    from robots.model import Robot
+from robots.ik_robot import IKRobot as Robot
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,9 +37,7 @@ from robots.ik import (
     ik_all,
     solutions,
 )
-
-if TYPE_CHECKING:  # robots.model imports this module
-    from robots.model import Robot
+from robots.ik_robot import IKRobot as Robot
 
 TWO_PI = 2.0 * math.pi
 HELD_VALUES = 128

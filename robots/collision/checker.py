@@ -19,8 +19,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from robots.collision import coal_model, continuous
-from robots.collision.continuous import ENTRY_CHUNK, PathCheck
+from robots.collision.coal_model import build as build_geometry_model
+from robots.collision.coal_model import closest_pairs
+from robots.collision.continuous import ENTRY_CHUNK, PathCheck, check_path
 from robots.collision.dampers import damper_inputs
 from robots.collision.entries import PairDistances
 from robots.collision.motion_bound import motion_weights
@@ -159,10 +160,8 @@ class CollisionChecker:
         """Continuous check of the motion through ``qs`` ``(N, dof)`` at ``times`` ``(N,)`` [s],
         joints moving linearly between consecutive rows: the first contact and a certified
         ``min_clearance`` (``robots.collision.continuous``); working memory at most
-        ``continuous.CHECK_WORKING_BYTES`` beyond the inputs."""
-        return continuous.check_path(
-            times, qs, self._evaluate, self.threshold, self._weights, self.pair_names
-        )
+        ``robots.collision.continuous.CHECK_WORKING_BYTES`` beyond the inputs."""
+        return check_path(times, qs, self._evaluate, self.threshold, self._weights, self.pair_names)
 
     def close_pairs(
         self, q: np.ndarray, d_influence: float
@@ -184,8 +183,8 @@ class CollisionChecker:
     def coal_geometry(self) -> tuple[pin.GeometryModel, list[tuple[int, int]]]:
         """The ``GeometryModel`` and, per checked pair (``pair_names`` order), its two geometry
         object indices (smaller first, as in ``gm.collisionPairs``)."""
-        return coal_model.build(self.geometry, self.obstacles, self._T_base_world,
-                                self._obs_pairs, self._self_pairs)  # fmt: skip
+        return build_geometry_model(self.geometry, self.obstacles, self._T_base_world,
+                                    self._obs_pairs, self._self_pairs)  # fmt: skip
 
     def closest_pairs(
         self, q: np.ndarray, limit: int = 20
@@ -194,6 +193,6 @@ class CollisionChecker:
         ``(links, distance [m], point on the first, point on the second)``, points in the base frame
         (coal via pinocchio's ``computeDistances``)."""
         gm, pairs = self.coal_geometry()
-        return coal_model.closest_pairs(
+        return closest_pairs(
             self.robot.model, gm, pairs, self.pair_names, self._T_base_world, q, limit
         )

@@ -5,13 +5,21 @@ closer than an influence distance at one configuration, its distance, normal and
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 import pinocchio as pin
 
-if TYPE_CHECKING:
-    from robots.collision.checker import CollisionChecker
+from robots.model import Robot
+
+
+class CoalChecker(Protocol):
+    """What ``damper_inputs`` reads of a ``CollisionChecker`` (its coal model and workspace)."""
+
+    robot: Robot
+    _coal: tuple[Any, ...] | None
+
+    def coal_geometry(self) -> tuple[pin.GeometryModel, list[tuple[int, int]]]: ...
 
 
 @dataclass(frozen=True)
@@ -46,7 +54,7 @@ def _point_jacobian(
     return np.asarray(J[:3] - skew @ J[3:])
 
 
-def damper_inputs(check: CollisionChecker, q: np.ndarray, d_influence: float) -> DamperInputs:
+def damper_inputs(check: CoalChecker, q: np.ndarray, d_influence: float) -> DamperInputs:
     """Closest points (coal, through pinocchio's ``computeDistances``), normals and point Jacobians
     of every checked pair closer than ``d_influence`` [m] at ``q``: the rows of the velocity dampers
     of the DLS QP (``core.clearance``). One coal workspace per checker (a control loop calls this
