@@ -75,7 +75,8 @@ def c1_check(budget) -> Table:
 
     result = check.check_path(times, qs)
     exhaustive = float(check.distances(qs).min())
-    assert abs(result.min_clearance - exhaustive) < 1e-9 and result.contact is None
+    # certified: a lower bound of the motion's minimum (at most the minimum at the points), 1e-4 m
+    assert exhaustive - 1e-4 <= result.min_clearance <= exhaustive and result.contact is None
     rows = [
         Row("ours: continuous check (check_path)", lambda: check.check_path(times, qs),
             note=f"{result.evaluations} pair distances of {1000 * check.n_pairs}"),
@@ -92,8 +93,9 @@ def c1_check(budget) -> Table:
             "pinocchio computeDistances at the 1000 points",
             rows,
             notes=[
-                f"min_clearance {result.min_clearance:.6f} m equals the exhaustive minimum over "
-                f"every pair at every point ({exhaustive:.6f} m).",
+                f"min_clearance {result.min_clearance:.6f} m is a certified lower bound of the "
+                f"motion's minimum, within 1e-4 m of it (every pair at every returned point: "
+                f"{exhaustive:.6f} m).",
             ],
             unit="ms",
         ),
@@ -182,13 +184,15 @@ def main() -> None:
         lines += table.markdown()
     lines += [
         "How the continuous check bounds the motion: joints move linearly between returned points; "
-        "any point of a capsule moves by at most sum_k L_k |dq_k| over a step (L_k: a bound on its "
+        "any point of a shape moves by at most sum_k L_k |dq_k| over a step (L_k: a bound on its "
         "distance from joint k's axis over all configurations, from the link lengths), so a "
-        "pair's distance over an interval of returned points never falls below (d_i + d_j - B)/2, B "
-        "that sum over the interval's joint travel. Intervals (every 16th point first) are split "
-        "while that bound is below the clearance or the smallest distance found so far; single "
-        "segments are split at joint midpoints. Pairs far from contact cost one evaluation per "
-        "16 points; box and cylinder pairs keep a bounding-sphere bound when it cannot matter.",
+        "pair's distance over an interval never falls below (d_i + d_j - B)/2, B that sum over the "
+        "interval's joint travel. Intervals (every 32nd point first) are cut while that bound is "
+        "below the clearance or more than 9e-5 m below the smallest distance found so far, into as "
+        "many pieces as a flat distance would need (2 to 16, at returned points, then within "
+        "segments), so min_clearance is certified to 1e-4 m between the points too. Pairs far from "
+        "contact cost one evaluation per 32 points; box and cylinder pairs keep an enclosing-capsule "
+        "bound when it cannot matter.",
         "",
         missed_by_points(),
         "",

@@ -14,11 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from core.errors import InvalidURDF
 
 
-def _ro(a: np.ndarray) -> np.ndarray:
+def _ro(a: ArrayLike) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.flags.writeable = False
     return a

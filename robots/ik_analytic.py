@@ -11,6 +11,10 @@ are part of the geometry EAIK sees, not left out):
   ``P[6]``: joint 6's origin -> the tip frame's origin (base frame, meters);
 - ``R6T``: the tip frame's orientation in the base frame at q = 0.
 
+With a tool offset (a TCP, ``with_tool``) EAIK keeps the flange chain it was built for: a tool pose
+is turned into the flange pose it needs (``T_base_tool @ inv(T_tip_tool)``) before EAIK solves it,
+so the decomposition never sees the offset.
+
 Its answers are candidates only: ``robots.ik`` keeps those whose pinocchio-consistent forward
 kinematics (``Chain.fk_many``, tested equal to pinocchio) reproduces the pose to 1e-9 m and 1e-9 rad,
 after a few Newton steps on the ones just outside (EAIK's least-squares branches near singularities).
@@ -20,6 +24,7 @@ answers reproduce the pose (worst 7e-13 m over 2,000 random UR5 poses).
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -46,6 +51,8 @@ class AnalyticIK:
     Attributes:
         family: EAIK's name of the kinematic family, e.g. ``"6R-THREE_INNER_PARALLEL"``.
         held: Joint index held fixed (the redundant joint of a 7R arm), or None for a 6R arm.
+        T_tool_tip: ``(4, 4)`` the flange (tip) in the tool frame, ``inv(T_tip_tool)``, or None
+            without a tool offset.
     """
 
     family: str
@@ -53,9 +60,22 @@ class AnalyticIK:
     H: np.ndarray = field(repr=False)
     P: np.ndarray = field(repr=False)
     R_tip: np.ndarray = field(repr=False)
-    _solver: object = field(repr=False, compare=False)
-    _held_cache: OrderedDict = field(default_factory=OrderedDict, repr=False, compare=False)
+    _solver: _eaik.Robot = field(repr=False, compare=False)
+    _held_cache: OrderedDict[float, _eaik.Robot] = field(
+        default_factory=OrderedDict, repr=False, compare=False
+    )
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+    T_tool_tip: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    def with_tool(self, T_tip_tool: np.ndarray) -> AnalyticIK:
+        """The same solver (EAIK objects and cache shared) answering for the tool frame
+        ``T_tip_tool`` (4, 4) on the flange."""
+        return dataclasses.replace(self, T_tool_tip=np.linalg.inv(T_tip_tool))
+
+    def _flange(self, T_base_tool: np.ndarray) -> np.ndarray:
+        """The flange pose(s) that put the tool at ``T_base_tool`` (4, 4) or (N, 4, 4)."""
+        T = np.asarray(T_base_tool, dtype=float)
+        return T if self.T_tool_tip is None else T @ self.T_tool_tip
 
     def _for(self, held_value: float | None) -> _eaik.Robot:
         if self.held is None:
@@ -78,7 +98,9 @@ class AnalyticIK:
     def solve(self, T_base_tool: np.ndarray, held_value: float | None = None) -> np.ndarray:
         """Candidate joint positions ``(k, n)`` [rad] for the tool pose (unverified, each angle in
         (-pi, pi]); with a held joint, its column is ``held_value``."""
-        solution = self._for(held_value).calculate_IK(np.ascontiguousarray(T_base_tool))
+        solution = self._for(held_value).calculate_IK(
+            np.ascontiguousarray(self._flange(T_base_tool))
+        )
         Q = np.array(solution.Q, dtype=float).reshape(-1, len(self.H))
         if self.held is not None:
             Q[:, self.held] = held_value  # EAIK returns the held joint's column too
@@ -88,7 +110,8 @@ class AnalyticIK:
         """``solve`` for each pose of ``Ts`` ``(N, 4, 4)`` (6R arms only), in EAIK's batched C++ loop."""
         if self.held is not None:
             return [self.solve(T) for T in Ts]
-        out = self._solver.calculate_IK_batched([np.ascontiguousarray(T) for T in Ts], threads)
+        flanges = self._flange(Ts)
+        out = self._solver.calculate_IK_batched([np.ascontiguousarray(T) for T in flanges], threads)
         n = len(self.H)
         return [np.asarray(s.Q, dtype=float).reshape(-1, n) for s in out]
 

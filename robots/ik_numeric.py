@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from core.kinematics import IKResult
+from robots.chain import Chain
 
 TWO_PI = 2.0 * math.pi
 LOCAL, ALIGNED = pin.LOCAL, pin.LOCAL_WORLD_ALIGNED
@@ -182,6 +183,25 @@ def planar_2r(
         candidates.append((not (ok1 and ok2), float(np.linalg.norm(q - seed)), sign, q))
     outside, _, _, q = min(candidates, key=lambda c: c[:3])
     return q, not outside
+
+
+def planar_2r_geometry(chain: Chain) -> tuple[np.ndarray, float, float, np.ndarray] | None:
+    """A planar 2R chain about +z axes as ``planar_2r`` sees it: joint 1's origin (x, y) [m], the link
+    lengths l1 (joint 1 to joint 2) and l2 (joint 2 to the chain's tip, a tool point included) [m],
+    and the angles [rad] of both links at q = 0 (link 1 absolute, link 2 relative to link 1): the
+    offsets between the joint positions and ``planar_2r``'s. None for other chains."""
+    if len(chain.q_index) != 2 or not chain.revolute.all():
+        return None
+    z, o, T = chain.joint_axes_many(np.zeros((1, 2)))
+    if not np.allclose(z[0], [[0.0, 0.0, 1.0]] * 2, atol=1e-12):
+        return None
+    o1, o2, p = o[0, 0, :2], o[0, 1, :2], T[0, :2, 3]
+    first, second = o2 - o1, p - o2
+    l1, l2 = float(np.hypot(*first)), float(np.hypot(*second))
+    if l1 < 1e-9 or l2 < 1e-9:
+        return None
+    theta = math.atan2(first[1], first[0])
+    return o1, l1, l2, np.array([theta, math.atan2(second[1], second[0]) - theta])
 
 
 def search(

@@ -28,7 +28,6 @@ import time
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.kinematics import Kinematics as Robot
 from robots.ik import (
     POLISH_BELOW,
     IKSolutions,
@@ -38,6 +37,7 @@ from robots.ik import (
     ik_all,
     solutions,
 )
+from robots.ik_robot import IKRobot as Robot
 
 TWO_PI = 2.0 * math.pi
 HELD_VALUES = 128

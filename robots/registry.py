@@ -240,7 +240,7 @@ def cache_size() -> int:
 def _key(urdf: str, tip_frame: str | None, base_frame: str | None) -> str:
     """The cache key of a client model: sha256 of the three texts joined by NUL (no URDF or link name
     that screening accepts holds a NUL), with a fourth part marking frames left out (``None``)."""
-    parts = (urdf, tip_frame or "", base_frame or "")
+    parts: tuple[str, ...] = (urdf, tip_frame or "", base_frame or "")
     if tip_frame is None or base_frame is None:
         parts += ("default frames",)
     return hashlib.sha256("\0".join(parts).encode("utf-8")).hexdigest()

@@ -38,8 +38,8 @@ def _rotation(axis: np.ndarray, angle: ca.SX) -> ca.SX:
 
 def chain_fk(chain: Chain, q: ca.SX) -> tuple[ca.SX, ca.SX]:
     """Symbolic tip position (3,) [m] and rotation (3, 3) in the base frame for joint symbols ``q``."""
-    R = ca.DM(chain.T_base_world[:3, :3])
-    p = ca.DM(chain.T_base_world[:3, 3])
+    R: ca.SX = ca.SX(ca.DM(chain.T_base_world[:3, :3]))
+    p: ca.SX = ca.SX(ca.DM(chain.T_base_world[:3, 3]))
     for k in range(len(chain.q_index)):
         x = q[int(chain.q_index[k])]
         p = p + R @ ca.DM(chain.translations[k])

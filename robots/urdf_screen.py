@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import defusedxml.ElementTree as DET
 from defusedxml import DefusedXmlException
@@ -91,7 +91,10 @@ def _name(s: str) -> str:
     return s if len(s) <= 64 else s[:61] + "..."
 
 
-def _floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> tuple[float, ...]:
+def floats(text: str | None, n: int, what: str, default: tuple[float, ...]) -> tuple[float, ...]:
+    """``n`` finite numbers from a URDF attribute (``default`` when absent); ``InvalidURDF`` naming
+    ``what`` otherwise. The one parser of numeric URDF attributes (joints here, ``<collision>``
+    elements in ``robots.geometry.urdf``)."""
     if text is None:
         return default
     try:
@@ -142,18 +145,19 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
     """Checked, minimal copy of one <joint>; returns it and its type after conversion."""
     where = f"joint '{_name(jname)}'"
     org = j.find("origin")
-    xyz = _floats(None if org is None else org.get("xyz"), 3, f"{where} origin xyz", (0.0,) * 3)
-    rpy = _floats(None if org is None else org.get("rpy"), 3, f"{where} origin rpy", (0.0,) * 3)
+    xyz = floats(None if org is None else org.get("xyz"), 3, f"{where} origin xyz", (0.0,) * 3)
+    rpy = floats(None if org is None else org.get("rpy"), 3, f"{where} origin rpy", (0.0,) * 3)
     if max(abs(v) for v in xyz + rpy) > MAX_COORDINATE:
         raise InvalidURDF(f"{where} origin is beyond 1e4 (m or rad)", field=FIELD)
     out = ET.Element("joint", name=jname, type="revolute" if jtype == "continuous" else jtype)
-    ET.SubElement(out, "parent", link=j.find("parent").get("link"))  # type: ignore[union-attr]
-    ET.SubElement(out, "child", link=j.find("child").get("link"))  # type: ignore[union-attr]
+    for end in ("parent", "child"):  # both checked to name existing links by the caller
+        element = j.find(end)
+        ET.SubElement(out, end, link=(element.get("link") if element is not None else None) or "")
     ET.SubElement(out, "origin", xyz=" ".join(map(repr, xyz)), rpy=" ".join(map(repr, rpy)))
     if jtype == "fixed":
         return out, jtype
     ax = j.find("axis")
-    axis = _floats(None if ax is None else ax.get("xyz"), 3, f"{where} axis", (1.0, 0.0, 0.0))
+    axis = floats(None if ax is None else ax.get("xyz"), 3, f"{where} axis", (1.0, 0.0, 0.0))
     norm = math.sqrt(sum(v * v for v in axis))
     if not 1e-9 < norm <= MAX_COORDINATE:
         raise InvalidURDF(f"{where} has a zero or oversized axis", field=FIELD)
@@ -167,8 +171,8 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
         if lim is None:
             raise InvalidURDF(f"{where} ({jtype}) needs a <limit> element", field=FIELD)
         # the URDF specification's defaults (urdfdom, pinocchio): a missing bound is 0
-        (lower,) = _floats(lim.get("lower"), 1, f"{where} lower limit", (0.0,))
-        (upper,) = _floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
+        (lower,) = floats(lim.get("lower"), 1, f"{where} lower limit", (0.0,))
+        (upper,) = floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
         lower, upper = max(lower, -MAX_COORDINATE), min(upper, MAX_COORDINATE)
     ET.SubElement(
         out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity), effort="0"
@@ -182,7 +186,7 @@ def _rate_limit(lim: ET.Element | None, attribute: str, where: str) -> float:
     velocity limits are clamped to 1e4 by the registry, as before)."""
     if lim is None or lim.get(attribute) is None:
         return 0.0
-    (value,) = _floats(lim.get(attribute), 1, f"{where} {attribute} limit", (0.0,))
+    (value,) = floats(lim.get(attribute), 1, f"{where} {attribute} limit", (0.0,))
     if value < 0:
         raise InvalidURDF(f"{where} has a negative {attribute} limit", field=FIELD)
     if 0.0 < value < MIN_RATE_LIMIT:
@@ -267,20 +271,34 @@ def default_tip(base: str, children: dict[str, list[tuple[str, str]]], order: li
     )
 
 
-def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> ScreenedURDF:
-    """Check ``urdf`` against every rule above; raise ``InvalidURDF`` or ``TooLarge`` on the first
-    broken one, else return the minimal URDF and the movable chain from the root to ``tip_frame``.
-    A frame given as ``None`` gets its default (``default_tip``, the root link for the base)."""
-    _precheck(urdf)
-    links, joints = _links_and_joints(_parse(urdf))
+@dataclass
+class _Tree:
+    """The screened joints: the minimal URDF, each child link's (joint, type, parent link), each
+    parent link's (type, child link) list, joint types after conversion, continuous joints."""
+
+    out: ET.Element
+    parent_of: dict[str, tuple[str, str, str]] = field(default_factory=dict)
+    children: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
+    types: dict[str, str] = field(default_factory=dict)
+    continuous: list[str] = field(default_factory=list)
+
+    def path_to_root(self, link: str, limit: int) -> list[tuple[str, str]]:
+        """``(joint, type)`` from ``link`` up to the root; ``InvalidURDF`` on a cycle."""
+        path: list[tuple[str, str]] = []
+        while link in self.parent_of:
+            jname, jtype, link = self.parent_of[link]
+            path.append((jname, jtype))
+            if len(path) > limit:
+                raise InvalidURDF("the joints form a cycle", field=FIELD)
+        return path
+
+
+def _tree(links: list[str], joints: list[ET.Element]) -> _Tree:
+    """Every joint checked and copied (``_joint_xml``), the links linked into a tree."""
     link_set = set(links)
-    parent_of: dict[str, tuple[str, str, str]] = {}  # child link -> (joint, type, parent link)
-    children: dict[str, list[tuple[str, str]]] = {}  # parent link -> (type, child link)
-    out = ET.Element("robot", name="screened")
+    tree = _Tree(ET.Element("robot", name="screened"))
     for name in links:
-        ET.SubElement(out, "link", name=name)
-    types: dict[str, str] = {}
-    continuous = []
+        ET.SubElement(tree.out, "link", name=name)
     for j in joints:
         jname, jtype = j.get("name", ""), j.get("type", "")
         if jtype not in JOINT_TYPES:
@@ -291,61 +309,70 @@ def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> Scr
         par, chi = j.find("parent"), j.find("child")
         plink = None if par is None else par.get("link")
         clink = None if chi is None else chi.get("link")
-        if plink not in link_set or clink not in link_set:
+        if plink is None or clink is None or plink not in link_set or clink not in link_set:
             raise InvalidURDF(
                 f"joint '{_name(jname)}' names a parent or child link that does not exist",
                 field=FIELD,
             )
-        if clink in parent_of:
+        if clink in tree.parent_of:
             raise InvalidURDF(
                 f"link '{_name(clink)}' is the child of more than one joint", field=FIELD
             )
-        element, types[jname] = _joint_xml(j, jname, jtype)
+        element, tree.types[jname] = _joint_xml(j, jname, jtype)
         if jtype == "continuous":
-            continuous.append(jname)
-        parent_of[clink] = (jname, types[jname], plink)
-        children.setdefault(plink, []).append((types[jname], clink))  # type: ignore[arg-type]
-        out.append(element)
-    roots = [name for name in links if name not in parent_of]
+            tree.continuous.append(jname)
+        tree.parent_of[clink] = (jname, tree.types[jname], plink)
+        tree.children.setdefault(plink, []).append((tree.types[jname], clink))
+        tree.out.append(element)
+    return tree
+
+
+def _check_frames(links: list[str], tip_frame: str | None, base_frame: str) -> None:
+    """Both frames name links (the tip reported first when both are given)."""
+    available = {"links": links[: 2 * MAX_JOINTS]}
+    frames: tuple[tuple[str, str | None], ...] = (
+        ("base_frame", base_frame),
+        ("tip_frame", tip_frame),
+    )
+    if tip_frame is not None:  # both given: the tip is reported first, as it always was
+        frames = frames[::-1]
+    for fname, frame in frames:
+        if frame is not None and frame not in links:
+            raise InvalidURDF(
+                f"{fname} names no link of the URDF", field=("robot", fname), extra=available
+            )
+
+
+def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> ScreenedURDF:
+    """Check ``urdf`` against every rule above; raise ``InvalidURDF`` or ``TooLarge`` on the first
+    broken one, else return the minimal URDF and the movable chain from the root to ``tip_frame``.
+    A frame given as ``None`` gets its default (``default_tip``, the root link for the base)."""
+    _precheck(urdf)
+    links, joints = _links_and_joints(_parse(urdf))
+    tree = _tree(links, joints)
+    roots = [name for name in links if name not in tree.parent_of]
     if len(roots) != 1:
         raise InvalidURDF(
             f"the links must form one tree; found {len(roots)} root links", field=FIELD
         )
-
-    def path_to_root(link: str) -> list[tuple[str, str]]:
-        path: list[tuple[str, str]] = []
-        while link in parent_of:
-            jname, jtype, link = parent_of[link]
-            path.append((jname, jtype))
-            if len(path) > len(links):
-                raise InvalidURDF("the joints form a cycle", field=FIELD)
-        return path
-
     for link in links:  # a cycle leaves some link unreachable from the single root
-        path_to_root(link)
-    available = {"links": links[: 2 * MAX_JOINTS]}
+        tree.path_to_root(link, len(links))
     base_frame = roots[0] if base_frame is None else base_frame
-    frames = (("base_frame", base_frame), ("tip_frame", tip_frame))
-    if tip_frame is not None:  # both given: the tip is reported first, as it always was
-        frames = frames[::-1]
-    for fname, frame in frames:
-        if frame is not None and frame not in link_set:
-            raise InvalidURDF(
-                f"{fname} names no link of the URDF", field=("robot", fname), extra=available
-            )
-    if any(t != "fixed" for _, t in path_to_root(base_frame)):
+    _check_frames(links, tip_frame, base_frame)
+    if any(t != "fixed" for _, t in tree.path_to_root(base_frame, len(links))):
         raise InvalidURDF(
             "base_frame must be fixed to the URDF's root link (a movable joint lies between them)",
             field=("robot", "base_frame"),
         )
     if tip_frame is None:
-        tip_frame = default_tip(base_frame, children, links)
-    chain = tuple(j for j, t in reversed(path_to_root(tip_frame)) if t != "fixed")
+        tip_frame = default_tip(base_frame, tree.children, links)
+    path = tree.path_to_root(tip_frame, len(links))
+    chain = tuple(j for j, t in reversed(path) if t != "fixed")
     if not chain:
         raise InvalidURDF(
             "no movable joint lies between the root and tip_frame", field=("robot", "tip_frame")
         )
-    for element in out.iter("joint"):  # joints off the chain are locked at 0: their range is moot
+    for element in tree.out.iter("joint"):  # joints off the chain are locked at 0: range is moot
         limit = element.find("limit")
         if element.get("name") in chain and limit is not None:
             if float(limit.get("lower", "0")) > float(limit.get("upper", "0")):
@@ -354,10 +381,10 @@ def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> Scr
                     field=FIELD,
                 )
     return ScreenedURDF(
-        xml=ET.tostring(out, encoding="unicode"),
+        xml=ET.tostring(tree.out, encoding="unicode"),
         chain=chain,
-        joint_types={j: types[j] for j in chain},
-        continuous=tuple(continuous),
+        joint_types={j: tree.types[j] for j in chain},
+        continuous=tuple(tree.continuous),
         link_names=tuple(links),
         tip_frame=tip_frame,
         base_frame=base_frame,

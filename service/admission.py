@@ -35,7 +35,7 @@ from core.cartesian.rate.control import MAX_TICKS
 from core.errors import PlanningError
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, SAMPLING_ADMISSION
 from robots import registry
-from robots.collision import KEY_STEP, MAX_CAPSULES, MAX_KEY_ENTRIES
+from robots.collision import CHECK_WORKING_BYTES, KEY_STEP, MAX_CAPSULES, MAX_KEY_ENTRIES
 from robots.geometry import ROBOT_GEOMETRY
 from service.errors import Overloaded
 
@@ -151,9 +151,10 @@ class Demand:
 def check_bytes(points: int, pairs: int) -> int:
     """Working memory [bytes] of a continuous check of ``points`` returned points against
     ``pairs`` pairs: ``CHECK_BYTES_PER_ENTRY`` per key entry (every ``KEY_STEP``-th point x pair),
-    at most ``MAX_KEY_ENTRIES`` entries (more is refused by the check itself)."""
+    at most ``MAX_KEY_ENTRIES`` entries (more is refused by the check itself), and never more
+    than ``CHECK_WORKING_BYTES``, the bound the check keeps by construction."""
     entries = min(MAX_KEY_ENTRIES, math.ceil(points / KEY_STEP) * pairs)
-    return entries * CHECK_BYTES_PER_ENTRY
+    return min(entries * CHECK_BYTES_PER_ENTRY, CHECK_WORKING_BYTES)
 
 
 def _get(node: Any, *path: str) -> Any:

@@ -1,9 +1,10 @@
-"""Collision capsules of the shipped robots, per link, in the link frames of ``robots/urdf/``.
+"""Collision shapes fixed to links: the shipped robots' capsules, and boxes and cylinders (inline URDFs).
 
 A capsule is the set of points within ``radius`` of the segment ``a``-``b`` (link frame, meters); a
 sphere is a capsule with ``a == b``. Capsules give exact, cheap distances (segment-segment) and cover
-the arm conservatively. Every robot's entry names its sources (``ROBOT_GEOMETRY[name].sources``);
-docs/robots.md "Collision geometry" repeats them.
+the arm conservatively. An inline URDF's ``<collision>`` boxes and cylinders stay boxes and cylinders
+(``Box``, ``Cylinder``; ``robots.geometry.urdf``). Every shipped robot's entry names its sources
+(``ROBOT_GEOMETRY[name].sources``); docs/robots.md "Collision geometry" repeats them.
 
 Frames: the shipped URDFs use DH frames (UR5, PUMA 560: standard DH; Panda: modified DH, identical to
 franka_description's ``panda_linkN`` frames), so offsets that the DH model folds into ``d`` (UR5's
@@ -12,7 +13,9 @@ shoulder and elbow offsets along the joint axes) are written out here where the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -23,6 +26,31 @@ class Capsule:
     a: tuple[float, float, float]
     b: tuple[float, float, float]
     radius: float
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box fixed to ``link``: full edge lengths ``size`` [m] along the axes of ``T_link_shape``
+    (4, 4), its centre and orientation in the link frame."""
+
+    link: str
+    size: tuple[float, float, float]
+    T_link_shape: np.ndarray = field(default_factory=lambda: np.eye(4), compare=False)
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """A cylinder fixed to ``link``: ``radius`` [m], ``length`` [m] along the z axis of
+    ``T_link_shape`` (4, 4), centred on its origin (in the link frame)."""
+
+    link: str
+    radius: float
+    length: float
+    T_link_shape: np.ndarray = field(default_factory=lambda: np.eye(4), compare=False)
+
+
+LinkShape = Capsule | Box | Cylinder
+"""One collision shape fixed to a link."""
 
 
 @dataclass(frozen=True)
@@ -93,7 +121,9 @@ UR5 = RobotGeometry(
 # Unimation PUMA 560 in Corke's DH frames (base_link on the floor, shoulder at d1 = 0.6718 m). No
 # published capsule model was found: the radii are estimates from the arm's layout drawing in
 # Unimation's PUMA Mark II 500 series equipment manual and the link lengths of Corke's model
-# (a2 = 0.4318 m upper arm, d4 = 0.4318 m forearm, d3 = 0.15005 m shoulder offset).
+# (a2 = 0.4318 m upper arm, d4 = 0.4318 m forearm, d3 = 0.15005 m shoulder offset). link4 is the
+# wrist housing that rolls with joint 4: its frame sits at the wrist centre with z along the forearm
+# (pointing away from the elbow), so the housing runs along -z up to the centre.
 PUMA560 = RobotGeometry(
     capsules=(
         _z("base_link", 0.0, 0.5, 0.1),
@@ -101,6 +131,7 @@ PUMA560 = RobotGeometry(
         _z("link2", 0.0, 0.15005, 0.1),
         Capsule("link2", (0.0, 0.0, 0.15005), (0.4318, 0.0, 0.15005), 0.09),
         Capsule("link3", (0.0203, -0.06, 0.0), (0.0203, 0.37, 0.0), 0.06),
+        _z("link4", -0.08, 0.0, 0.05),
         Capsule("link5", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.055),
         _z("link6", 0.02, 0.06, 0.035),
     ),
@@ -108,6 +139,8 @@ PUMA560 = RobotGeometry(
         "Corke, Robotics Toolbox puma560 (link lengths a2, d3, d4: where the capsules run)",
         "radii: estimates from Unimation's PUMA 560 arm layout drawing (no published capsule "
         "model found); conservative",
+        "link4 (the wrist housing rolling with joint 4): 8 cm along the forearm axis up to the "
+        "wrist centre, radius 5 cm, from the same drawing",
     ),
 )
 

@@ -69,7 +69,9 @@ def joint_limits(limits: Limits | JointLimitsIn | None, robot: Any) -> JointLimi
 def joint_inputs(request: JointTrajectoryRequest) -> JointInputs:
     """Move, limits and joint names of a joint-space request."""
     start, goal = request.start, request.goal
-    robot, names = robot_and_names(request.robot, len(start.positions), ("start", "positions"))
+    robot, names = robot_and_names(
+        request.robot, len(start.positions), ("start", "positions"), request.tool
+    )
     motion = PointToPoint.create(
         start.positions,
         goal.positions,
@@ -89,7 +91,7 @@ def spline_inputs(request: SplineRequest) -> SplineInputs:
             raise InputError(
                 f"waypoints.{i} needs {dof} values like waypoints.0", field=("waypoints", i)
             )
-    robot, names = robot_and_names(request.robot, dof, ("waypoints", 0))
+    robot, names = robot_and_names(request.robot, dof, ("waypoints", 0), request.tool)
 
     def array(value: list[float] | None) -> np.ndarray | None:
         return None if value is None else np.asarray(value, dtype=float)

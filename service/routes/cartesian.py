@@ -14,6 +14,7 @@ from core.budget import Deadline
 from robots import registry
 from service import deps, environment
 from service.convert import cartesian as convert
+from service.convert.robot import with_tool
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
 from service.schemas.common import TIME_FORMAT_QUERY, TimeFormat, trajectory_responses
@@ -45,7 +46,7 @@ def cartesian_trajectory(
     deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
-    robot = registry.resolve(body.robot)
+    robot = with_tool(registry.resolve(body.robot), body.tool)
     task = convert.task_from_spec(body, robot, deadline, settings.max_points)
     result, elapsed_ms = convert.run(task, body.method, settings.max_points)
     result = environment.guard_cartesian(

@@ -17,11 +17,18 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from robots import registry
-from robots.collision import robot_setup
+from robots.collision import link_shapes, robot_setup
 from service import deps, environment
-from service.convert.robot import robot_positions
+from service.convert.robot import robot_positions, with_tool
 from service.encoding import json_response
-from service.schemas.common import PROBLEM_RESPONSES, JointPositions, RobotRef, StrictModel
+from service.schemas.common import (
+    PROBLEM_RESPONSES,
+    TOOL_FIELD,
+    JointPositions,
+    RobotRef,
+    StrictModel,
+    Tool,
+)
 from service.schemas.environment import Environment
 
 router = APIRouter(prefix="/v1", tags=["collision"])
@@ -30,6 +37,7 @@ MAX_PAIRS = 20
 
 class DistanceRequest(StrictModel):
     positions: JointPositions = Field(description="Joint positions [rad or m], one per joint.")
+    tool: Tool | None = TOOL_FIELD
     environment: Environment | None = Field(default=None, description="Obstacles and options.")
 
 
@@ -55,7 +63,7 @@ def _distance(robot_ref: Any, body: DistanceRequest, deadline: Deadline) -> Resp
     """The closest pairs at ``body.positions``, after the entry checks of every planning route
     (``robot_positions``: one per joint, inside the limits) and within the request's deadline,
     checked between the stages (the robot, its checker, the distances)."""
-    robot = registry.resolve(robot_ref)
+    robot = with_tool(registry.resolve(robot_ref), body.tool)  # checked; no geometry of its own
     q = robot_positions(robot, body.positions, ("positions",))
     deadline.check("distance: loading the robot")
     check = environment.checker(robot, body.environment, environment.inline_urdf(robot_ref))
@@ -93,23 +101,15 @@ def distance(
 
 
 def collision_description(robot_ref: Any) -> dict[str, Any]:
-    """``collision_geometry`` and ``allowed_self_collisions`` of a robot, for its GET description
-    (the robots route belongs to another team: its owner adds these two keys)."""
+    """``collision_geometry`` and ``allowed_self_collisions`` of a robot, as in its description:
+    each shape as the check uses it (``robots.collision.link_shapes``), in its link's frame."""
     robot = registry.resolve(robot_ref)
     geometry, allowed = robot_setup(robot, environment.inline_urdf(robot_ref))
-    capsules = [
-        {
-            "link": link,
-            "type": "capsule",
-            "a": geometry.a[i].tolist(),
-            "b": geometry.b[i].tolist(),
-            "radius": float(geometry.radius[i]),
-            "frame": "joint",
-            "joint": robot.model.names[int(geometry.joints[i])],
-        }
-        for i, link in enumerate(geometry.links)
+    shapes = [
+        {"link": link, "shape": shape, "origin": T.tolist()}
+        for link, shape, T in link_shapes(robot, geometry)
     ]
     return {
-        "collision_geometry": capsules,
+        "collision_geometry": shapes,
         "allowed_self_collisions": sorted(sorted(p) for p in allowed),
     }

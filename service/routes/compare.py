@@ -23,6 +23,7 @@ from core.errors import PlanningError
 from robots import registry
 from service import deps, environment
 from service.convert import cartesian as convert
+from service.convert.robot import with_tool
 from service.encoding import json_response
 from service.errors import planning_error_body
 from service.field_paths import nest
@@ -58,7 +59,7 @@ def compare(
     settings = request.app.state.settings
     methods = body.methods or list(METHODS)
     try:
-        robot = registry.resolve(body.task.robot)
+        robot = with_tool(registry.resolve(body.task.robot), body.task.tool)
         task = convert.task_from_spec(
             body.task,
             robot,

@@ -24,6 +24,7 @@ from robots import registry
 from robots.model import Robot
 from service import deps, environment
 from service.convert.cartesian import failure_body
+from service.convert.robot import with_tool
 from service.encoding import (
     base_diagnostics,
     check_finite,
@@ -218,7 +219,7 @@ def program_trajectory(
     deadline: Deadline = Depends(deps.request_deadline),
 ) -> Response:
     settings = request.app.state.settings
-    robot = registry.resolve(body.robot)
+    robot = with_tool(registry.resolve(body.robot), body.tool)
     task = task_from_request(body, robot, deadline)
     if body.samples is not None and body.samples > settings.max_points:
         raise TooLarge(

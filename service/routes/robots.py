@@ -15,7 +15,7 @@ from robots import registry
 from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
 from service import deps, environment
-from service.convert.robot import robot_positions
+from service.convert.robot import robot_positions, with_tool
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
@@ -57,19 +57,14 @@ def list_robots() -> list[dict]:
 
 
 def _collision(robot: Robot, urdf: str | None) -> dict:
-    """``collision_geometry`` and ``allowed_self_collisions`` (``robots.collision``)."""
+    """``collision_geometry`` (the shapes as the check uses them) and ``allowed_self_collisions``
+    (``robots.collision``)."""
     geometry, allowed = robot_setup(robot, urdf)
     shapes = [
-        CollisionShape(
-            link=link,
-            shape=(
-                {"type": "capsule", "radius": radius, "length": length}
-                if length > 0
-                else {"type": "sphere", "radius": radius}
-            ),
-            origin=Pose.from_matrix(T),
+        CollisionShape.model_validate(
+            {"link": link, "shape": shape, "origin": Pose.from_matrix(T).model_dump()}
         )
-        for link, radius, length, T in link_shapes(robot, geometry)
+        for link, shape, T in link_shapes(robot, geometry)
     ]
     return {
         "collision_geometry": shapes,
@@ -107,7 +102,8 @@ def _detail(robot: Robot, urdf: str | None = None) -> RobotDetail:
     summary="The description of any robot, inline URDF models included",
 )
 def describe_robot(body: DescribeRequest) -> RobotDetail:
-    return _detail(registry.resolve(body.robot), environment.inline_urdf(body.robot))
+    robot = with_tool(registry.resolve(body.robot), body.tool)
+    return _detail(robot, environment.inline_urdf(body.robot))
 
 
 @router.get(
@@ -121,6 +117,7 @@ def get_robot(name: str = RobotName) -> RobotDetail:
 
 
 def _fk(robot: Robot, body: FKRequest) -> FKResponse:
+    robot = with_tool(robot, body.tool)
     q = robot_positions(robot, body.positions, ("positions",))
     if body.frame is None:
         T, J = robot.fk(q), robot.jacobian(q)
@@ -166,6 +163,7 @@ def forward_kinematics_inline(body: InlineFKRequest) -> FKResponse:
 
 
 def _ik(robot: Robot, body: IKRequest, deadline: Deadline) -> IKResponse | IKAllResponse:
+    robot = with_tool(robot, body.tool)
     seed = None
     if body.seed is not None:
         if len(body.seed) != robot.dof:

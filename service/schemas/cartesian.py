@@ -17,11 +17,13 @@ from core.cartesian.task import SPEED_PROFILES
 from core.path import PATHS
 from service.schemas.common import (
     MAX_DURATION,
+    TOOL_FIELD,
     JointPositions,
     Pose,
     Position,
     RobotRef,
     StrictModel,
+    Tool,
     TrajectoryResponse,
     not_with,
 )
@@ -126,6 +128,7 @@ class CartesianTaskSpec(StrictModel):
     """A straight-line task: the tool moves on the line from FK(start) to the goal pose."""
 
     robot: RobotRef
+    tool: Tool | None = TOOL_FIELD
     environment: Environment | None = Field(
         default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
     )

@@ -282,6 +282,35 @@ class Pose(StrictModel):
         return cls.model_construct(position=p.tolist(), orientation=q.tolist())
 
 
+MAX_TOOL_OFFSET = 10.0
+"""[m] Largest tool offset from the tip frame, per coordinate (``robots.tool.MAX_TOOL_OFFSET``)."""
+ToolOffset = Annotated[float, Field(ge=-MAX_TOOL_OFFSET, le=MAX_TOOL_OFFSET)]
+
+
+class Tool(Pose):
+    """A tool offset (TCP): the tool frame's pose in the robot's tip frame.
+
+    Poses, lines, arcs, IK, configuration labels, FK and diagnostics then refer to the tool frame.
+    ``orientation`` as in every pose: a quaternion in ROS order (x, y, z, w), norm within 1e-3 of 1,
+    normalized. ``as_matrix()`` gives ``T_tip_tool`` (4x4).
+    """
+
+    position: list[ToolOffset] = Field(  # type: ignore[assignment]
+        min_length=3,
+        max_length=3,
+        description="Tool origin [x, y, z] in the tip frame [m], each |.| <= 10.",
+    )
+
+
+TOOL_FIELD: Any = Field(
+    default=None,
+    description="A tool offset (TCP): the tool frame's pose in the tip frame (position [m], "
+    "quaternion x, y, z, w). Poses, lines, arcs, IK and diagnostics then refer to the tool frame. "
+    "Default: none (the tip frame).",
+)
+"""The ``tool`` field of every request that names a robot."""
+
+
 def trajectory_responses(model: type[BaseModel]) -> dict[int | str, dict[str, Any]]:
     """OpenAPI ``responses`` of a route answering ``model`` (200) or problem+json."""
     return {

@@ -14,12 +14,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 from core.program.segments import MAX_SEGMENTS
 from service.schemas.cartesian import MAX_ANGULAR_SPEED, MAX_LINEAR_SPEED, Tolerance
 from service.schemas.common import (
+    TOOL_FIELD,
     JointPositions,
     Pose,
     Position,
     RobotRef,
     RosDuration,
     StrictModel,
+    Tool,
     TrajectoryResponse,
     not_with,
 )
@@ -216,6 +218,7 @@ class ProgramRequest(StrictModel):
     """POST /v1/trajectories/program."""
 
     robot: RobotRef
+    tool: Tool | None = TOOL_FIELD
     environment: Environment | None = Field(
         default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
     )

@@ -6,8 +6,16 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, StringConstraints
 
-from service.schemas.common import JointPositions, Pose, Position, RobotRef, StrictModel
-from service.schemas.environment import CapsuleShape, Sphere
+from service.schemas.common import (
+    TOOL_FIELD,
+    JointPositions,
+    Pose,
+    Position,
+    RobotRef,
+    StrictModel,
+    Tool,
+)
+from service.schemas.environment import Box, CapsuleShape, Cylinder, Sphere
 
 NAME_PATTERN = r"^[A-Za-z0-9_.\-]{1,64}$"
 FrameName = Field(
@@ -57,9 +65,11 @@ class IKInfo(BaseModel):
 
 class CollisionShape(BaseModel):
     link: str = Field(description="The link the shape is fixed to.")
-    shape: CapsuleShape | Sphere = Field(
-        description="Same shape objects as obstacles: a capsule (radius, length between the "
-        "hemisphere centres, along the shape's z axis, centred) or a sphere [m]."
+    shape: CapsuleShape | Sphere | Box | Cylinder = Field(
+        description="The shape as the collision check uses it, in the obstacles' form [m]: a "
+        "capsule (radius, length between the hemisphere centres, along the shape's z axis, "
+        "centred), a sphere, a box (full edge lengths) or a cylinder (radius, length along z); "
+        "an inline URDF's boxes and cylinders are exact, not wrapped in capsules."
     )
     origin: Pose = Field(description="Pose of the shape's centre in the link frame [m].")
 
@@ -88,6 +98,7 @@ class RobotDetail(RobotSummary):
 
 class FKRequest(StrictModel):
     positions: JointPositions
+    tool: Tool | None = TOOL_FIELD
     frame: str | None = FrameName
     frames: bool = Field(
         default=False,
@@ -123,6 +134,7 @@ class FKResponse(BaseModel):
 
 class IKRequest(StrictModel):
     pose: Pose
+    tool: Tool | None = TOOL_FIELD
     seed: JointPositions | None = Field(
         default=None,
         description="Start of the search [rad or m] (default the robot's home); the solution nearest "
@@ -197,3 +209,4 @@ class InlineIKRequest(IKRequest):
 
 class DescribeRequest(StrictModel):
     robot: RobotRef
+    tool: Tool | None = TOOL_FIELD

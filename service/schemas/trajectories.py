@@ -18,6 +18,7 @@ from service.schemas.common import (
     MAX_DURATION,
     MAX_JOINTS,
     MIN_LIMIT,
+    TOOL_FIELD,
     JointAccelerations,
     JointPositions,
     JointVelocities,
@@ -25,6 +26,7 @@ from service.schemas.common import (
     RobotRef,
     Sampling,
     StrictModel,
+    Tool,
 )
 from service.schemas.environment import Environment
 
@@ -85,6 +87,7 @@ class JointTrajectoryRequest(Sampling):
     """``POST /v1/trajectories/joint``: a point-to-point move with one profile for every joint."""
 
     robot: RobotRef | None = Field(default=None, description=ROBOT_DESCRIPTION)
+    tool: Tool | None = TOOL_FIELD
     environment: Environment | None = Field(
         default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
     )
@@ -113,6 +116,7 @@ class SplineRequest(Sampling):
     """``POST /v1/trajectories/spline``: a C2 cubic spline through every waypoint at its time."""
 
     robot: RobotRef | None = Field(default=None, description=ROBOT_DESCRIPTION)
+    tool: Tool | None = TOOL_FIELD
     environment: Environment | None = Field(
         default=None, description="Obstacles, clearance, self-collision (API.md, Environment)."
     )

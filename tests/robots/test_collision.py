@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import robots.collision as collision
+import robots.collision.continuous as continuous
 from core.clearance import Clearance, velocity_damper_rows
 from core.errors import TooLarge
 from robots import registry
@@ -19,9 +19,9 @@ from robots.collision import (
     robot_collision,
     robot_setup,
 )
-from robots.geometry import ROBOT_GEOMETRY
+from robots.geometry import ROBOT_GEOMETRY, Box, Capsule, Cylinder
 from robots.geometry.distance import segment_segment
-from robots.geometry.urdf import capsules_from_urdf
+from robots.geometry.urdf import enclosing_capsule, shapes_from_urdf
 
 ROBOTS = ["planar_2r", "puma560", "ur5", "panda"]
 
@@ -116,7 +116,7 @@ def test_numpy_distances_equal_coal_for_every_shape() -> None:
     check = CollisionChecker(robot, geometry, every_shape(), allowed_self=allowed)
     gm, names = check.geometry_model()
     assert sorted(names) == sorted(check.pair_names)
-    _, _, pairs = check._geometry_model()
+    _, pairs = check.coal_geometry()
     qs = np.random.default_rng(1).uniform(-np.pi, np.pi, (150, 6))
     D = check.distances(qs)
     worst = 0.0
@@ -181,7 +181,7 @@ def test_motion_bound_holds_for_every_pair(name: str) -> None:
         dq = rng.normal(scale=0.3, size=robot.dof)
         s = np.linspace(0, 1, 201)
         D = check.distances(q0 + s[:, None] * dq)
-        bound = np.abs(dq) @ check._weights.T
+        bound = np.abs(dq) @ check.motion_weights.T
         change = np.abs(D - D[0]).max(axis=0)
         assert np.all(change <= bound + 1e-9)
 
@@ -219,13 +219,15 @@ def test_clear_motion_reports_min_clearance_of_an_independent_computation() -> N
     qs = q0 + np.linspace(0, 1, 301)[:, None] * np.array([0.6, 0.2, -0.2, 0.1, 0.3, 0.0])
     result = check.check_path(np.linspace(0, 3, 301), qs)
     assert result.contact is None
+    dense = q0 + np.linspace(0, 1, 3001)[:, None] * np.array([0.6, 0.2, -0.2, 0.1, 0.3, 0.0])
     ref = min(
         point_segment(c, a, b) - r - R
-        for q in qs
+        for q in dense
         for link in set(geometry.links) - {"base_link"}
         for a, b, r in capsule_world(robot, q, link)
     )
-    assert result.min_clearance == pytest.approx(ref, abs=1e-6)
+    # certified: a lower bound of the motion's minimum (between the points too), within 1e-4 m
+    assert ref - 1e-4 <= result.min_clearance <= ref + 1e-12
     assert result.closest is not None and result.closest[0][1] == "ball"
 
 
@@ -253,7 +255,9 @@ def test_panda_self_collision_is_found() -> None:
     assert all(name.startswith("panda_link") for name in result.contact.links)
 
 
-def test_inline_urdf_primitives_enclose_the_shapes_and_meshes_are_listed() -> None:
+def test_inline_urdf_primitives_are_exact_shapes_and_meshes_are_listed() -> None:
+    """Spheres, boxes and cylinders stay what they are (exact); their enclosing capsules (used only
+    for cheap lower bounds) contain them; mesh-only links are listed."""
     urdf = """<robot name="r">
       <link name="base"><collision><geometry><box size="0.2 0.2 0.1"/></geometry></collision></link>
       <link name="l1"><collision><origin xyz="0.25 0 0"/><geometry><cylinder radius="0.05"
@@ -262,13 +266,16 @@ def test_inline_urdf_primitives_enclose_the_shapes_and_meshes_are_listed() -> No
         <collision><geometry><mesh filename="x.stl"/></geometry></collision></link>
       <link name="tip"><collision><geometry><mesh filename="y.stl"/></geometry></collision></link>
     </robot>"""
-    capsules, mesh_only = capsules_from_urdf(urdf)
+    shapes, mesh_only = shapes_from_urdf(urdf)
     assert mesh_only == ["tip"]
-    by_link = {c.link: c for c in capsules}
-    assert by_link["l2"].radius == 0.04 and by_link["l2"].a == by_link["l2"].b
+    by_link = {s.link: s for s in shapes}
+    box, cyl, ball = by_link["base"], by_link["l1"], by_link["l2"]
+    assert isinstance(box, Box) and box.size == (0.2, 0.2, 0.1)
+    assert isinstance(cyl, Cylinder) and (cyl.radius, cyl.length) == (0.05, 0.5)
+    np.testing.assert_allclose(cyl.T_link_shape[:3, 3], [0.25, 0.0, 0.0])
+    assert isinstance(ball, Capsule) and ball.radius == 0.04 and ball.a == ball.b
     rng = np.random.default_rng(6)
-    for link, half, kind in (("base", np.array([0.1, 0.1, 0.05]), "box"), ("l1", None, "cyl")):
-        c = by_link[link]
+    for shape, half, kind in ((box, np.array([0.1, 0.1, 0.05]), "box"), (cyl, None, "cyl")):
         if kind == "box":
             pts = rng.choice([-1.0, 1.0], (2000, 3)) * half  # the corners: the farthest points
         else:
@@ -276,9 +283,9 @@ def test_inline_urdf_primitives_enclose_the_shapes_and_meshes_are_listed() -> No
             z = np.where(rng.random(2000) < 0.5, rng.choice([-0.25, 0.25], 2000), 0.0)
             z = np.where(z == 0, rng.uniform(-0.25, 0.25, 2000), z)
             pts = np.c_[0.25 + 0.05 * np.cos(u), 0.05 * np.sin(u), z]
-        a, b = np.array(c.a), np.array(c.b)
+        a, b, radius = enclosing_capsule(shape)
         d = np.array([point_segment(p, a, b) for p in pts])
-        assert np.all(d <= c.radius + 1e-12), link
+        assert np.all(d <= radius + 1e-12), shape.link
 
 
 def test_velocity_damper_rows() -> None:
@@ -307,9 +314,10 @@ def test_allowed_self_pairs_is_deterministic() -> None:
 
 @pytest.mark.parametrize("seed", range(8))
 def test_branch_and_bound_check_equals_exhaustive_references(seed: int) -> None:
-    """Random work cells of every shape and random joint paths: min_clearance equals the exact
-    minimum over every returned point and pair, and the first contact equals the first crossing of a
-    dense sweep (to 1e-3 of the duration)."""
+    """Random work cells of every shape and random joint paths: min_clearance is a lower bound of the
+    minimum over a dense sweep of the motion, within 1e-4 m of it (it was the minimum over the
+    returned points only, above the motion's true minimum), and the first contact equals the first
+    crossing of a dense sweep (to 1e-3 of the duration)."""
     rng = np.random.default_rng(100 + seed)
     robot = registry.get("ur5" if seed % 2 else "panda")
     geometry, allowed = robot_setup(robot)
@@ -349,12 +357,12 @@ def test_branch_and_bound_check_equals_exhaustive_references(seed: int) -> None:
     result = check.check_path(times, qs)
     D = check.distances(qs)
     bad = (D < check.threshold).any(axis=1)
-    if result.contact is None:
-        assert not bad.any()
-        assert result.min_clearance == pytest.approx(D.min(), abs=1e-9)
-        return
     dense = np.linspace(0, 1, 6_001)
     Dd = check.distances(q0 + dense[:, None] * (q1 - q0))
+    if result.contact is None:
+        assert not bad.any() and (Dd >= check.threshold).all()
+        assert Dd.min() - 1e-4 <= result.min_clearance <= Dd.min() + 1e-12
+        return
     first = 3.0 * dense[int(np.argmax((Dd < check.threshold).any(axis=1)))]
     assert result.contact.time == pytest.approx(first, abs=3e-3), (seed, result.contact)
     if bad.any():
@@ -399,7 +407,8 @@ def test_a_check_over_the_size_bound_is_too_large(monkeypatch) -> None:
     geometry, allowed = robot_setup(robot)
     check = CollisionChecker(robot, geometry, every_shape(), allowed_self=allowed)
     qs = np.linspace(robot.home, robot.home + 0.1, 1000)
-    monkeypatch.setattr(collision, "MAX_KEY_ENTRIES", 63 * check.n_pairs - 1)
+    keys = (1000 - 1) // continuous.KEY_STEP + 2  # every KEY_STEP-th point and the last
+    monkeypatch.setattr(continuous, "MAX_KEY_ENTRIES", keys * check.n_pairs - 1)
     with pytest.raises(TooLarge) as info:
         check.check_path(np.linspace(0, 1, 1000), qs)
     assert info.value.field == ("environment",)

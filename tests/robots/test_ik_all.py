@@ -16,7 +16,7 @@ import pytest
 
 from core.errors import InputError, JointLimit
 from robots import ik as robot_ik
-from robots import registry
+from robots import ik_batch, registry
 from robots.configurations import LABELS, WRIST_6R
 
 TWO_PI = 2 * math.pi
@@ -307,7 +307,7 @@ def test_ik_many_follows_the_start_configuration_along_a_line() -> None:
     assert path.solver == "analytic" and path.found.all() and path.within_limits.all()
     assert path.configuration == robot.configuration(q0)
     assert set(robot.configurations(path.positions)) == {path.configuration}
-    assert robot_ik.pose_errors_many(robot, path.positions, Ts)[0].max() <= 1e-9
+    assert ik_batch.pose_errors_many(robot, path.positions, Ts)[0].max() <= 1e-9
     assert np.abs(np.diff(np.vstack([q0, path.positions]), axis=0)).max() < 0.05  # no jump
     # the same as damped Newton from the previous sample, sample by sample
     previous, numeric = q0, []

@@ -11,9 +11,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from core.errors import InputError, InvalidURDF
+from core.errors import InvalidURDF
 from robots import ik, registry
 from robots.collision import link_shapes, robot_collision, robot_setup
+from robots.geometry.urdf import MIN_EXTENT
 from tests.robots.inline_urdfs import joint, robot
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "urdf"
@@ -55,8 +56,8 @@ def test_collision_primitive_on_a_link_that_shares_a_joint_name() -> None:
     r = registry.load_inline(urdf, "right_hand", "base")
     geometry, _ = robot_setup(r, urdf)
     assert geometry.links == ("right_hand",)
-    [(link, radius, length, T)] = link_shapes(r, geometry)
-    assert (link, radius, length) == ("right_hand", 0.05, 0.0)
+    [(link, shape, T)] = link_shapes(r, geometry)
+    assert (link, shape) == ("right_hand", {"type": "sphere", "radius": 0.05})
     np.testing.assert_allclose(T[:3, 3], [0.0, 0.0, 0.1], atol=1e-15)
     # placed by FK: the sphere centre is 0.1 m above the hand, which is 0.4 m out along the arm
     q = np.array([0.7])
@@ -86,14 +87,14 @@ def test_zero_size_collision_primitives_are_skipped_not_refused() -> None:
     r = registry.load_inline(urdf, "tip", "base")
     geometry = robot_collision(r, urdf)
     assert geometry.links == () and geometry.unchecked_links == ()
-    # a flat box keeps its (enclosing) capsule: it has extent in two axes
+    # a flat box is kept as a box (a plate with extent in two axes), MIN_EXTENT thin
     flat = urdf.replace('<box size="0 0 0"/>', '<box size="0.2 0.1 0"/>')
     geometry = robot_collision(registry.load_inline(flat, "tip", "base"), flat)
     assert geometry.links == ("l1",)
-    np.testing.assert_allclose(geometry.radius, [math.hypot(0.05, 0.05)])
+    np.testing.assert_allclose(geometry.dims, [[0.1, 0.05, MIN_EXTENT / 2]])
     for bad in ('<box size="0 -1 0"/>', '<sphere radius="nan"/>', '<cylinder radius="1"/>'):
         broken = urdf.replace('<box size="0 0 0"/>', bad)
-        with pytest.raises(InputError):
+        with pytest.raises(InvalidURDF):  # a URDF rejection is invalid_urdf, not validation
             robot_collision(registry.load_inline(broken, "tip", "base"), broken)
 
 

@@ -98,7 +98,9 @@ def test_a_partial_plan_reports_the_clearance_of_its_prefix(client: TestClient, 
     assert 0.0 <= diag["min_clearance"] <= min(distances) + 1e-9
     k = int(np.argmin(distances))
     if diag["closest"]["time_from_start"] == pytest.approx(times[k], abs=1e-12):
-        assert diag["min_clearance"] == pytest.approx(distances[k], abs=1e-9)
+        # certified: a lower bound of the motion's minimum, within 1e-4 m of it (it was the
+        # minimum at the returned points, which the motion between them may undercut)
+        assert diag["min_clearance"] == pytest.approx(distances[k], abs=1e-4)
 
 
 def test_union_members_are_not_in_the_error_location(client: TestClient) -> None:
