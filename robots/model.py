@@ -28,6 +28,7 @@ from robots import ik_analytic as _ik_analytic
 from robots import ik_numeric as _ik_numeric
 from robots import ik_retry as _ik_retry
 from robots.chain import Chain
+from robots.dynamics import RigidBodyDynamics, effort_limits
 from robots.symbolic import fk_casadi
 
 ClosedFormIK = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, bool]]
@@ -58,6 +59,7 @@ class Robot:
             ``dof - task rows`` joints.
         sources: Where each kind of limit comes from (``"position"``, ``"velocity"``, ...).
         jerk_limits: ``(dof,)`` [rad/s^3 or m/s^3], > 0, or ``None`` where the maker publishes none.
+        with_dynamics: The model's inertias are known (``robots.dynamics``): ``dynamics`` is set.
     """
 
     def __init__(
@@ -75,6 +77,7 @@ class Robot:
         sources: Mapping[str, str] | None = None,
         redundant_joints: tuple[str, ...] | None = None,
         jerk_limits: np.ndarray | None = None,
+        with_dynamics: bool = False,
     ) -> None:
         if task_space not in TASK_SPACES:
             raise ValueError(f"task_space must be one of {TASK_SPACES}")
@@ -120,6 +123,9 @@ class Robot:
             held = tuple(range(model.nq - extra, model.nq))
         self._redundant = tuple(self._joint_names[j] for j in sorted(held))
         self._family = _configurations.family(self._chain, task_space)
+        R_world_base = self._T_base_world[:3, :3].T
+        self._dynamics = RigidBodyDynamics(model, R_world_base) if with_dynamics else None
+        self._effort = effort_limits(model)
 
     # --- description --------------------------------------------------------------------------
     @property
@@ -158,6 +164,16 @@ class Robot:
     def jerk_limits(self) -> np.ndarray | None:
         """``(dof,)`` joint jerk limits [rad/s^3 or m/s^3], or ``None`` when not published."""
         return self._jerk
+
+    @property
+    def effort_limits(self) -> np.ndarray | None:
+        """``(dof,)`` joint effort limits [N m or N] from the URDF, or ``None`` when not known."""
+        return self._effort
+
+    @property
+    def dynamics(self) -> RigidBodyDynamics | None:
+        """Inverse dynamics (``core.kinematics.Dynamics``), or ``None`` without inertias."""
+        return self._dynamics
 
     @property
     def home(self) -> np.ndarray:
