@@ -49,18 +49,22 @@ class BlendedPath:
             half = 0.5 * theta
             reach = max_deviation * np.sin(half) / (2.0 * np.sin(0.5 * half) ** 2)
             dist[k] = min(0.5 * seglen[k - 1], 0.5 * seglen[k], reach)
-            radius = dist[k] / np.tan(half)
+            r = float(dist[k] / np.tan(half))
             bisector = (d1 - d0) / np.linalg.norm(d1 - d0)
-            center = q[k] + bisector * (radius / np.cos(half))
+            center = q[k] + bisector * (r / np.cos(half))
             x = q[k] - dist[k] * d0 - center
-            arcs[k] = (center, x / np.linalg.norm(x), d0, radius, radius * theta)
-        origin, e1, e2, radius, lengths = [], [], [], [], []
+            arcs[k] = (center, x / np.linalg.norm(x), d0, r, r * float(theta))
+        origin: list[np.ndarray] = []
+        e1: list[np.ndarray] = []
+        e2: list[np.ndarray] = []
+        radius: list[float] = []
+        lengths: list[float] = []
         for k in range(n - 1):
             if k in arcs:
-                c, x, y, r, length = arcs[k]
+                c, x, y, r_k, length = arcs[k]
                 for target, value in ((origin, c), (e1, x), (e2, y)):
                     target.append(value)
-                radius.append(r)
+                radius.append(r_k)
                 lengths.append(length)
             line = seglen[k] - dist[k] - dist[k + 1]
             if line > 0.0 or (k == n - 2 and not lengths):
