@@ -33,6 +33,7 @@ from core.timing.path_constraints import PathLimits, Rows
 from core.timing.path_grid import PathSamples, one_sided, path_grid, sample_path, stops
 from core.timing.reachability import IntervalRows, Reachability
 from core.timing.speed_limited import GridTiming
+from core.trajectory import default_joint_names
 
 DENSE = 4
 """Dense check: samples at fractions 0, 1/4, ..., 1 of every grid interval."""
@@ -103,12 +104,17 @@ class TimeOptimal:
 
 
 def time_optimal(
-    path: JointPath, limits: PathLimits, *, deadline: Deadline = NO_DEADLINE
+    path: JointPath,
+    limits: PathLimits,
+    *,
+    joint_names: tuple[str, ...] = (),
+    deadline: Deadline = NO_DEADLINE,
 ) -> TimeOptimal:
     """The shortest rest-to-rest timing of ``path`` that keeps ``limits`` everywhere (within
-    ``TOLERANCE``). ``Infeasible`` names the joint and the path fraction ``s`` where gravity alone
-    exceeds an effort limit, or where no motion keeps the limits; ``deadline`` is checked between
-    rounds (``TimeBudgetExceeded``)."""
+    ``TOLERANCE``). ``Infeasible`` names the joint (``joint_names``, default j1..jn) and the path
+    fraction ``s`` where gravity alone exceeds an effort limit, or where no motion keeps the
+    limits; ``deadline`` is checked between rounds (``TimeBudgetExceeded``)."""
+    names = tuple(joint_names) or default_joint_names(path.dof)
     grid = path_grid(path)
     s, d = grid.s, np.diff(grid.s)
     h = limits.bounds
@@ -117,7 +123,7 @@ def time_optimal(
     f = np.arange(1, DENSE) / DENSE
     inner = (s[:-1, None] + d[:, None] * f).ravel()
     dense = limits.rows(*sample_path(path, inner))
-    _gravity_check(limits, path, (start, end, dense), (s[:-1], s[1:], inner))
+    _gravity_check(limits, path, (start, end, dense), (s[:-1], s[1:], inner), names)
     deadline.check("time-optimal timing")
     stop = stops(path, grid)
     gamma = np.ones((len(d), len(h)))
@@ -251,7 +257,11 @@ def _slow_down(
 
 
 def _gravity_check(
-    limits: PathLimits, path: JointPath, rows: tuple[Rows, ...], at: tuple[np.ndarray, ...]
+    limits: PathLimits,
+    path: JointPath,
+    rows: tuple[Rows, ...],
+    at: tuple[np.ndarray, ...],
+    names: tuple[str, ...],
 ) -> None:
     """``Infeasible`` naming the joint and ``s`` where gravity alone exceeds an effort limit."""
     if limits.effort is None:
@@ -266,7 +276,8 @@ def _gravity_check(
             joint = labels[j][1]
             frac = float(s[k] / path.length)
             raise Infeasible(
-                f"gravity alone exceeds the effort limit of joint {joint} at s={frac:.6g}",
+                f"gravity alone exceeds the effort limit of joint {names[joint or 0]} at "
+                f"s={frac:.6g}",
                 s=frac,
                 joint=joint,
                 extra={"limit": "effort"},
@@ -277,10 +288,15 @@ def _binding(
     limits: PathLimits, start: Rows, end: Rows, x: np.ndarray, d: np.ndarray,
     bound: np.ndarray, s: np.ndarray,
 ) -> tuple[Binding, ...]:  # fmt: skip
-    """Per interval the row nearest its (tightened) bound at the interval's ends, as stretches;
-    stretches shorter than 1/200 of the path join the one before."""
+    """Per interval the row nearest its (tightened) bound at the interval's ends (an interval
+    where none binds takes the next interval's), as stretches; stretches shorter than 1/200 of
+    the path join the one before."""
     ratio = _end_ratios(start, end, x, d, bound)
     row = np.where(ratio.max(axis=1) >= 1.0 - 1e-6, ratio.argmax(axis=1), -1)
+    # an interval bound by none of its own rows is on its way to the next one's limit
+    known = np.flatnonzero(row >= 0)
+    if known.size:
+        row = row[known[np.minimum(np.searchsorted(known, np.arange(len(row))), known.size - 1)]]
     labels = limits.labels()
     length = s[-1]
     out: list[Binding] = []
