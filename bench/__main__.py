@@ -4,8 +4,9 @@ run, alternating, with medians, p95 and ratios (see ``bench/RESULTS.md``).
 - P1 quintic (``bench.joint``), P2 spline (``bench.joint``), P3 Cartesian line with IK and P4 bounded
   deviation (``bench.cartesian``), P5 resolved-rate tick and 1,000-tick run (``bench.rate``, on
   ``bench.rate_tick``), P6 HTTP under load (``bench.http_load``), I1/I2 every IK solution and a
-  labelled line (``bench.ik``), C1/C2 continuous collision checks (``bench.collision``); the motion
-  programs' P7 is ``python -m bench.program``.
+  labelled line (``bench.ik``), C1/C2 continuous collision checks (``bench.collision``), R1 retiming
+  a path at the optimum against toppra (``bench.retime``); the motion programs' P7 is
+  ``python -m bench.program``.
 - ``--quick`` (CI): short rounds, fewer ticks and requests; exits non-zero only on an error (ours
   raising, a peer raising once installed, a non-200 answer), never on a timing. Peers that are not
   installed are printed as ``unavailable``.
@@ -44,7 +45,7 @@ PACKAGES = (
     "orjson", "httpx", "roboticstoolbox-python", "spatialmath-python", "pin-pink", "daqp",
     "toppra", "ruckig",
 )  # fmt: skip
-TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2")
+TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2", "R1")
 
 
 def versions() -> str:
@@ -124,6 +125,11 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
         do(collision.c1_check, budget, measured=True)
     if "C2" in tasks:
         do(collision.c2_line, budget, measured=True)
+    if "R1" in tasks:
+        from bench import retime
+
+        for table in retime.r1_retime():
+            do(lambda table=table: table)
     if "P6" in tasks:
         requests, seconds = (400, 10.0) if quick else (20_000, 30.0)
         do(http_load.p6_http, requests, seconds, budget, measure)

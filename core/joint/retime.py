@@ -117,7 +117,8 @@ def plan_retime(
     (base frame) measure ``peak_effort``. ``InputError`` names the field at fault; ``JointLimit``
     the ``s`` where a spline leaves the position limits; ``Infeasible`` where no motion keeps the
     limits (or gravity alone exceeds an effort limit)."""
-    names = tuple(joint_names) or default_joint_names(int(np.shape(waypoints)[-1]))
+    shape = np.shape(np.asarray(waypoints, dtype=float))
+    names = tuple(joint_names) or default_joint_names(int(shape[-1]) if shape else 0)
     if path not in PATHS:
         raise InputError(f"path must be one of {', '.join(PATHS)}", field=("path",))
     limits.validate(len(names))

@@ -5,8 +5,9 @@
 length (s_k = sum of |q_k - q_{k-1}| over the previous waypoints, [rad or m]), and the cubic has
 scipy's ``not-a-knot`` ends (the first two and the last two pieces are one cubic each; with two
 waypoints the straight line, with three the parabola through them), so it is C2 everywhere and its
-derivatives with respect to s are exact (polynomial pieces). The waypoints are the knots and the
-breakpoints of a timing grid (d3q/ds3 jumps there). Units: waypoints ``(n, dof)`` [rad or m].
+derivatives with respect to s are exact (polynomial pieces). The waypoints are the knots; d2q/ds2 is
+continuous there, so the only breakpoints are the ends, and the knots are the path's ``joins``
+(``JoinedPath``: a timing law checks its limits there rather than putting them in its grid). Units: waypoints ``(n, dof)`` [rad or m].
 """
 
 from __future__ import annotations
@@ -34,5 +35,10 @@ class SplinePath:
         return np.asarray(self._spline(s, nu=order))
 
     def breakpoints(self) -> np.ndarray:
-        """The knots ``(n,)``, from 0 to ``length``."""
+        """``[0, length]``: d2q/ds2 is continuous at the knots, so a timing grid need not hold
+        them (``joins``)."""
+        return np.array([0.0, self.length])
+
+    def joins(self) -> np.ndarray:
+        """The knots ``(n,)``, where d3q/ds3 jumps (``core.timing.joint_path.JoinedPath``)."""
         return self.knots.copy()

@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-REFINE_STEPS = 12
+REFINE_STEPS = 8
 """Parabolic (or golden-section) steps of ``refine_peaks``."""
 _GOLD = 0.3819660112501051
 

@@ -18,12 +18,16 @@ from core.timing.joint_path import JointPath
 
 BASE_INTERVALS = 100
 """Grid intervals of a path without curvature (a straight line)."""
-TURN = 0.3
+TURN = 0.2
 """Largest |d2q/ds2| / |dq/ds| times the grid spacing: the direction (in rad) and the relative
 speed of the path change by about this much across one interval."""
 MIN_PER_PIECE = 6
 """Fewest grid intervals between two breakpoints (a straight segment's switch from acceleration to
-deceleration needs a few)."""
+deceleration needs a few) while the path has at most ``PIECE_BUDGET / MIN_PER_PIECE`` pieces; a
+path of more pieces gets ``PIECE_BUDGET`` / pieces each (at least one): short pieces of a long path
+(840 waypoints of a program's answer) need no more."""
+PIECE_BUDGET = 1200
+"""Intervals the per-piece minimum may ask for in all."""
 MAX_INTERVALS = 60_000
 """Most grid intervals (a path with more pieces than this gets one interval per piece)."""
 NUDGE = 1e-10
@@ -54,29 +58,35 @@ class Grid(NamedTuple):
 
 
 def path_grid(path: JointPath) -> Grid:
-    """The grid of ``path`` (rules in the module docstring)."""
+    """The grid of ``path`` (rules in the module docstring): every piece between breakpoints is
+    cut into cells of at most 1/``BASE_INTERVALS`` of the path, and each cell into as many equal
+    intervals as its largest |d2q/ds2| / |dq/ds| (five samples) asks for under ``TURN``."""
     length = float(path.length)
     b = np.asarray(path.breakpoints(), dtype=float)
     b = np.unique(np.clip(np.concatenate([[0.0, length], b]), 0.0, length))
-    pieces = np.diff(b)
-    keep = pieces > 1e-12 * length
+    keep = np.diff(b) > 1e-12 * length
     b = np.concatenate([b[:-1][keep], [length]])
     pieces = np.diff(b)
+    cells = np.maximum(1, np.ceil(pieces * BASE_INTERVALS / length)).astype(np.int64)
+    piece = np.repeat(np.arange(len(pieces)), cells)
+    k = np.arange(int(cells.sum())) - np.repeat(np.cumsum(cells) - cells, cells)
+    width = (pieces / cells)[piece]
+    left = b[:-1][piece] + k * width
     f = np.array([0.02, 0.25, 0.5, 0.75, 0.98])
-    s = (b[:-1, None] + pieces[:, None] * f).ravel()
+    s = (left[:, None] + width[:, None] * f).ravel()
     dq, ddq = path(s, 1), path(s, 2)
     with np.errstate(divide="ignore", invalid="ignore"):
         bend = np.linalg.norm(ddq, axis=1) / np.linalg.norm(dq, axis=1)
     bend = np.nan_to_num(bend, nan=0.0, posinf=1e12).reshape(-1, len(f)).max(axis=1)
-    spacing = np.minimum(length / BASE_INTERVALS, TURN / np.maximum(bend, 1e-300))
-    n = np.maximum(MIN_PER_PIECE, np.ceil(pieces / spacing)).astype(np.int64)
+    fewest = int(np.clip(PIECE_BUDGET // max(len(pieces), 1), 1, MIN_PER_PIECE))
+    n = np.ceil(width * np.maximum(bend, 1e-300) / TURN)
+    n = np.maximum(n, np.ceil(fewest / cells[piece])).clip(1, None).astype(np.int64)
     if n.sum() > MAX_INTERVALS:
         share = max(MAX_INTERVALS - len(n), 0) / max(float((n - 1).sum()), 1.0)
         n = 1 + np.floor((n - 1) * min(share, 1.0)).astype(np.int64)
-    start = np.repeat(np.cumsum(n) - n, n)
-    j = np.arange(int(n.sum())) - start
-    grid = np.concatenate([np.repeat(b[:-1], n) + j * np.repeat(pieces / n, n), [length]])
-    breaks = np.concatenate([j == 0, [True]])
+    j = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    grid = np.concatenate([np.repeat(left, n) + j * np.repeat(width / n, n), [length]])
+    breaks = np.concatenate([(j == 0) & np.repeat(k == 0, n), [True]])
     return Grid(grid, breaks)
 
 

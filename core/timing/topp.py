@@ -9,8 +9,8 @@ speed, effort; ``core.timing.path_constraints``): TOPP-RA's reachability analysi
 TOPP-RA keeps its limits at the grid points only; between them they can be exceeded (toppra 0.6.10
 by 7.5-56 % on joint accelerations, hungpham2511/toppra#150). Here every interval's limits are kept
 at both of its ends (x_i and x_i + 2 d_i u_i, TOPP-RA's "interpolation" discretization), then the
-answer is checked densely: ``DENSE`` + 1 samples per interval, the peak between them estimated and,
-where it comes near the limit, found to ~1e-13 (``core.timing.interval_peaks``). Where a peak
+answer is checked densely (``core.timing.dense_check``: samples in every interval, and at the path's
+joins, the peak between them estimated and, where it comes near the limit, found to ~1e-13). Where a peak
 exceeds its limit, that limit is tightened on that interval alone by the excess and the passes run
 again, until every peak is within ``TOLERANCE`` (the contract's 1e-9 relative) of its limit; if that
 does not converge in ``ROUNDS``, the whole profile is slowed uniformly until it is. The answer
@@ -27,7 +27,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import Infeasible
-from core.timing.interval_peaks import refine_peaks, sampled_peaks
+from core.timing.dense_check import DENSE, Check, values
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import PathLimits, Rows
 from core.timing.path_grid import PathSamples, one_sided, path_grid, sample_path, stops
@@ -35,14 +35,10 @@ from core.timing.reachability import IntervalRows, Reachability
 from core.timing.speed_limited import GridTiming
 from core.trajectory import default_joint_names
 
-DENSE = 4
-"""Dense check: samples at fractions 0, 1/4, ..., 1 of every grid interval."""
 TOLERANCE = 1e-9
 """Largest relative excess of a limit anywhere (velocity rows: of the squared velocity)."""
 AIM = 1e-11
 """Relative margin a tightened limit leaves below the limit."""
-NEAR = 1e-7
-"""Sampled peaks within this of their limit are found exactly (``refine_peaks``)."""
 ROUNDS = 10
 """Most rounds of tightening before the uniform slow-down."""
 
@@ -120,10 +116,11 @@ def time_optimal(
     h = limits.bounds
     start = limits.rows(*one_sided(path, s[:-1], grid.breaks[:-1], d, +1.0))
     end = limits.rows(*one_sided(path, s[1:], grid.breaks[1:], d, -1.0))
-    f = np.arange(1, DENSE) / DENSE
-    inner = (s[:-1, None] + d[:, None] * f).ravel()
-    dense = limits.rows(*sample_path(path, inner))
-    _gravity_check(limits, path, (start, end, dense), (s[:-1], s[1:], inner), names)
+    check = Check.build(path, limits, s, start, end)
+    inner_s = s[check.parent][:, None] + np.diff(s)[check.parent][:, None] * (
+        check.lo[:, None] + (check.hi - check.lo)[:, None] * (np.arange(1, DENSE) / DENSE)
+    )
+    _gravity_check(limits, path, (start, end, check.inner), (s[:-1], s[1:], inner_s.ravel()), names)
     deadline.check("time-optimal timing")
     stop = stops(path, grid)
     gamma = np.ones((len(d), len(h)))
@@ -132,12 +129,14 @@ def time_optimal(
     last = np.full((2, len(d), len(h)), np.nan)  # ends and peak of the rows cut last round
     passes = Reachability(_rows(start, end, d, h * gamma, stop))
     changed = np.zeros(0, dtype=np.int64)
+    before: tuple[np.ndarray, np.ndarray] | None = None
     for _ in range(ROUNDS):
         passes.update(_rows(start, end, d, h * gamma, stop), changed)
         x = _solve(passes, path, s)
         if not grid_duration:
             grid_duration = GridTiming.from_speeds(s, np.sqrt(x)).duration
-        peak = _peaks(path, limits, s, d, x, (start, end, dense), h)
+        peak = check.peaks(path, limits, s, x, h, before)
+        before = (x, peak)
         deadline.check("time-optimal timing")
         worst = float(peak.max(initial=0.0))
         if worst <= 1.0 + TOLERANCE:
@@ -149,8 +148,8 @@ def time_optimal(
         last[:] = np.nan
         last[0][over], last[1][over] = ends[over], peak[over]
     else:
-        x = _slow_down(x, d, (start, end, dense), h, worst)
-        worst = float(_peaks(path, limits, s, d, x, (start, end, dense), h).max(initial=0.0))
+        x = _slow_down(x, d, start, h, worst)
+        worst = float(check.peaks(path, limits, s, x, h).max(initial=0.0))
     binding = _binding(limits, start, end, x, d, h * gamma, s)
     return TimeOptimal(path, s, x, binding, grid_duration, worst)
 
@@ -182,43 +181,6 @@ def _solve(passes: Reachability, path: JointPath, s: np.ndarray) -> np.ndarray:
         ) from e
 
 
-def _values(rows: Rows, u: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """|A u + B x + C| of ``rows`` ``(K, m)`` at ``u``, ``x`` ``(K,)``."""
-    return np.abs(rows.A * u[:, None] + rows.B * x[:, None] + rows.C)
-
-
-def _peaks(
-    path: JointPath, limits: PathLimits, s: np.ndarray, d: np.ndarray, x: np.ndarray,
-    rows: tuple[Rows, Rows, Rows], h: np.ndarray,
-) -> np.ndarray:  # fmt: skip
-    """The largest value over bound of every row in every interval ``(N, m)``: sampled, and found
-    exactly where a sample comes within ``NEAR`` of the bound."""
-    start, end, dense = rows
-    n, m = len(d), len(h)
-    u = np.diff(x) / (2.0 * d)
-    f = np.arange(DENSE + 1) / DENSE
-    xs = x[:-1, None] + 2.0 * d[:, None] * u[:, None] * f  # x at each sample (N, DENSE + 1)
-    ratios = np.empty((n, DENSE + 1, m))
-    ratios[:, 0] = _values(start, u, xs[:, 0]) / h
-    ratios[:, -1] = _values(end, u, xs[:, -1]) / h
-    inner = _values(dense, np.repeat(u, DENSE - 1), xs[:, 1:-1].ravel()) / h
-    ratios[:, 1:-1] = inner.reshape(n, DENSE - 1, m)
-    peak, where = sampled_peaks(ratios)
-    near = (peak > 1.0 - NEAR) & (where > 0.0) & (where < 1.0)
-    if near.any():
-        i, r = np.nonzero(near)
-
-        def evaluate(k: np.ndarray, frac: np.ndarray, row: np.ndarray) -> np.ndarray:
-            at = s[k] + frac * d[k]
-            values = _values(
-                limits.rows(*sample_path(path, at)), u[k], x[k] + 2.0 * frac * d[k] * u[k]
-            )
-            return values[np.arange(len(k)), row] / h[row]
-
-        peak[i, r] = np.maximum(peak[i, r], refine_peaks(evaluate, i, r, where[i, r], DENSE + 1))
-    return peak
-
-
 def _cut(
     ends: np.ndarray, peak: np.ndarray, ends_before: np.ndarray, peak_before: np.ndarray,
     gamma: np.ndarray,
@@ -237,15 +199,14 @@ def _cut(
 def _end_ratios(start: Rows, end: Rows, x: np.ndarray, d: np.ndarray, h: np.ndarray) -> np.ndarray:
     """Every row's value over ``h`` at the ends of every interval, the larger of the two ``(N, m)``."""
     u = np.diff(x) / (2.0 * d)
-    return np.maximum(_values(start, u, x[:-1]), _values(end, u, x[1:])) / h
+    return np.maximum(values(start, u, x[:-1]), values(end, u, x[1:])) / h
 
 
 def _slow_down(
-    x: np.ndarray, d: np.ndarray, rows: tuple[Rows, Rows, Rows], h: np.ndarray, worst: float
+    x: np.ndarray, d: np.ndarray, start: Rows, h: np.ndarray, worst: float
 ) -> np.ndarray:
     """x scaled by 1/lambda^2 (the same motion, slower) so that every limit holds: rows without a
     constant term scale with x; effort rows are solved for lambda at every sample."""
-    start, _, _ = rows
     lam2 = max(worst, 1.0) * (1.0 + 4.0 * AIM)
     u = np.diff(x) / (2.0 * d)
     moving = start.A * u[:, None] + start.B * x[:-1, None]

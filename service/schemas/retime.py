@@ -38,7 +38,7 @@ class RetimeRequest(Sampling):
         description="2 to 10,000 joint position vectors [rad or m], each |.| <= 1e4, all of one "
         "length (the number of joints, 1-64); consecutive waypoints must differ.",
     )
-    path: PathKind = Field(
+    path: PathKind = Field(  # type: ignore[valid-type]
         default="blended",
         description="blended (default): straight joint segments whose corners are rounded by "
         "circular arcs within max_deviation, as MoveIt's time-optimal trajectory generation; "
