@@ -117,7 +117,12 @@ def plan_retime(
     (base frame) measure ``peak_effort``. ``InputError`` names the field at fault; ``JointLimit``
     the ``s`` where a spline leaves the position limits; ``Infeasible`` where no motion keeps the
     limits (or gravity alone exceeds an effort limit)."""
-    shape = np.shape(np.asarray(waypoints, dtype=float))
+    try:
+        shape = np.shape(np.asarray(waypoints, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(
+            "waypoints must be rows of joint values of one length", field=("waypoints",)
+        ) from None
     names = tuple(joint_names) or default_joint_names(int(shape[-1]) if shape else 0)
     if path not in PATHS:
         raise InputError(f"path must be one of {', '.join(PATHS)}", field=("path",))
