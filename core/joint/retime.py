@@ -167,13 +167,15 @@ def _times(
 ) -> np.ndarray:
     """The requested sample times merged with a pair of times ``MIN_SPACING`` apart around every
     interior switch time of s'' (the switch exactly between them, so the trapezoid rule over the
-    pair integrates the acceleration's jump exactly); any other two times closer than
-    ``MIN_SPACING`` are one."""
+    pair integrates the acceleration's jump exactly), or the switch times themselves when the
+    pairs would exceed ``max_points``; any other two times closer than ``MIN_SPACING`` are one."""
     base = sample_times(timing.duration, sample_period, samples, max_points)
     switch = timing.switch_times[1:-1]
     half = 0.5 * MIN_SPACING
     wide = np.diff(timing.switch_times)
     alone = (wide[:-1] > 4.0 * MIN_SPACING) & (wide[1:] > 4.0 * MIN_SPACING)
+    if len(base) + len(switch) + alone.sum() > max_points:
+        alone[:] = False  # no room for pairs: one point at each switch (a path of many pieces)
     pairs = np.concatenate([switch[alone] - half, switch[alone] + half, switch[~alone]])
     fixed = np.concatenate([[0.0, timing.duration], pairs])
     fixed.sort()

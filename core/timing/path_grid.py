@@ -28,7 +28,7 @@ path of more pieces gets ``PIECE_BUDGET`` / pieces each (at least one): short pi
 (840 waypoints of a program's answer) need no more."""
 PIECE_BUDGET = 1200
 """Intervals the per-piece minimum may ask for in all."""
-MAX_INTERVALS = 60_000
+MAX_INTERVALS = 40_000
 """Most grid intervals (a path with more pieces than this gets one interval per piece)."""
 NUDGE = 1e-10
 """One-sided samples sit this fraction of the interval inside it."""

@@ -267,8 +267,8 @@ class Reachability:
         up_h, lo_h = self.lines["up_h"], self.lines["lo_h"]
         top0, bottom0 = self._top0, self._bottom0
         moved: list[int] = []
-        queue = list(starts)
-        i = queue.pop(0) if queue else -1
+        queue, qi = list(starts), 1
+        i = queue[0] if queue else -1
         while i >= 0:
             h, l_next = hi[i + 1], lo[i + 1]
             top, bottom = top0[i], bottom0[i]
@@ -296,9 +296,10 @@ class Reachability:
             if bottom < 0.0:
                 bottom = 0.0
             if dirty and top == hi[i] and bottom == lo[i] and i not in dirty:
-                while queue and queue[0] >= i:
-                    queue.pop(0)
-                i = queue.pop(0) if queue else -1
+                while qi < len(queue) and queue[qi] >= i:
+                    qi += 1
+                i = queue[qi] if qi < len(queue) else -1
+                qi += 1
                 continue
             if dirty:
                 moved.append(i)
@@ -316,8 +317,8 @@ class Reachability:
         ups, downs = self.lines["up_u"], self.lines["lo_u"]
         two_d = self._two_d
         n = len(two_d)
-        queue = list(starts)
-        i = queue.pop(0) if queue else n
+        queue, qi = list(starts), 1
+        i = queue[0] if queue else n
         while i < n:
             xi, step = x[i], two_d[i]
             u_hi = (hi[i + 1] - xi) / step
@@ -339,9 +340,10 @@ class Reachability:
             if nxt < 0.0:
                 nxt = 0.0
             if dirty and nxt == x[i + 1] and i not in dirty:
-                while queue and queue[0] <= i:
-                    queue.pop(0)
-                i = queue.pop(0) if queue else n
+                while qi < len(queue) and queue[qi] <= i:
+                    qi += 1
+                i = queue[qi] if qi < len(queue) else n
+                qi += 1
                 continue
             x[i + 1] = nxt
             i += 1
