@@ -5,7 +5,8 @@ run, alternating, with medians, p95 and ratios (see ``bench/RESULTS.md``).
   deviation (``bench.cartesian``), P5 resolved-rate tick and 1,000-tick run (``bench.rate``, on
   ``bench.rate_tick``), P6 HTTP under load (``bench.http_load``), I1/I2 every IK solution and a
   labelled line (``bench.ik``), C1/C2 continuous collision checks (``bench.collision``), B1/B2 100
-  UR5 plans batched against one by one (``bench.batch``); the motion programs' P7 is
+  UR5 plans batched against one by one (``bench.batch``), R1 retiming a path at the optimum
+  against toppra (``bench.retime``); the motion programs' P7 is
   ``python -m bench.program``.
 - ``--quick`` (CI): short rounds, fewer ticks and requests; exits non-zero only on an error (ours
   raising, a peer raising once installed, a non-200 answer), never on a timing. Peers that are not
@@ -45,7 +46,7 @@ PACKAGES = (
     "orjson", "httpx", "roboticstoolbox-python", "spatialmath-python", "pin-pink", "daqp",
     "toppra", "ruckig",
 )  # fmt: skip
-TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2", "B1", "B2")
+TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2", "R1", "B1", "B2")
 
 
 def versions() -> str:
@@ -125,6 +126,11 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
         do(collision.c1_check, budget, measured=True)
     if "C2" in tasks:
         do(collision.c2_line, budget, measured=True)
+    if "R1" in tasks:
+        from bench import retime
+
+        for table in retime.r1_retime():
+            do(lambda table=table: table)
     if set(tasks) & {"B1", "B2"}:
         from bench import batch
 

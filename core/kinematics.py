@@ -212,6 +212,32 @@ class SymbolicKinematics(Kinematics, Protocol):
         ...
 
 
+DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
+"""Gravity [m/s^2] in the robot's base frame when a request gives none."""
+
+
+class Dynamics(Protocol):
+    """Rigid-body inverse dynamics of a robot (``robots.dynamics.RigidBodyDynamics`` is one).
+
+    ``tau = M(q) q'' + C(q, q') q' + g(q)`` [N m or N] per joint, for many samples at once; no
+    friction. ``gravity`` is the gravity vector [m/s^2] in the robot's base frame, ``(3,)``.
+    """
+
+    def inverse_dynamics(
+        self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, gravity: np.ndarray
+    ) -> np.ndarray:
+        """``tau`` ``(N, dof)`` at the rows of ``q``, ``qd``, ``qdd`` ``(N, dof)``."""
+        ...
+
+    def path_coefficients(
+        self, q: np.ndarray, dq_ds: np.ndarray, d2q_ds2: np.ndarray, gravity: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(a, b, c)``, each ``(N, dof)``, with ``tau = a s'' + b s'^2 + c`` along a path q(s)
+        at the rows of ``q``, ``dq_ds``, ``d2q_ds2`` ``(N, dof)``: ``a = M q_s``, ``b = M q_ss +
+        C(q, q_s) q_s``, ``c = g(q)``."""
+        ...
+
+
 class DerivedKinematics:
     """Mixin for a small robot model (tests, toys) that has only ``fk`` and ``jacobian``: the batched
     and combined members of ``Kinematics`` built from them, one configuration at a time."""

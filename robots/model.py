@@ -28,6 +28,7 @@ from robots import configurations as _configurations
 from robots import ik_analytic as _ik_analytic
 from robots import tool as _tool
 from robots.chain import Chain
+from robots.dynamics import RigidBodyDynamics, effort_limits
 from robots.forward import ForwardKinematics
 from robots.frames import Frames
 from robots.robot_data import ClosedFormIK
@@ -63,6 +64,7 @@ class Robot(ForwardKinematics, Frames, InverseKinematics):
             ``dof - task rows`` joints.
         sources: Where each kind of limit comes from (``"position"``, ``"velocity"``, ...).
         jerk_limits: ``(dof,)`` [rad/s^3 or m/s^3], > 0, or ``None`` where the maker publishes none.
+        with_dynamics: The model's inertias are known (``robots.dynamics``): ``dynamics`` is set.
     """
 
     def __init__(
@@ -80,6 +82,7 @@ class Robot(ForwardKinematics, Frames, InverseKinematics):
         sources: Mapping[str, str] | None = None,
         redundant_joints: tuple[str, ...] | None = None,
         jerk_limits: np.ndarray | None = None,
+        with_dynamics: bool = False,
     ) -> None:
         if task_space not in TASK_SPACES:
             raise ValueError(f"task_space must be one of {TASK_SPACES}")
@@ -104,6 +107,9 @@ class Robot(ForwardKinematics, Frames, InverseKinematics):
         self.sources: Mapping[str, str] = MappingProxyType(dict(sources or {}))
         self._set_redundancy(redundant_joints)
         self._family = _configurations.family(self._chain, task_space)
+        R_world_base = self._T_base_world[:3, :3].T
+        self._dynamics = RigidBodyDynamics(model, R_world_base) if with_dynamics else None
+        self._effort = effort_limits(model)
         self._arm: Robot = self
         self._tool: np.ndarray | None = None
         self._tools: OrderedDict[bytes, Robot] = OrderedDict()
@@ -223,6 +229,16 @@ class Robot(ForwardKinematics, Frames, InverseKinematics):
     def jerk_limits(self) -> np.ndarray | None:
         """``(dof,)`` joint jerk limits [rad/s^3 or m/s^3], or ``None`` when not published."""
         return self._jerk
+
+    @property
+    def effort_limits(self) -> np.ndarray | None:
+        """``(dof,)`` joint effort limits [N m or N] from the URDF, or ``None`` when not known."""
+        return self._effort
+
+    @property
+    def dynamics(self) -> RigidBodyDynamics | None:
+        """Inverse dynamics (``core.kinematics.Dynamics``), or ``None`` without inertias."""
+        return self._dynamics
 
     @property
     def home(self) -> np.ndarray:

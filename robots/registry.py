@@ -43,6 +43,7 @@ import pinocchio as pin
 
 from core.errors import InputError, InvalidURDF, UnknownRobot
 from robots import ik_numeric as _ik
+from robots.dynamics import has_inertials
 from robots.model import Robot
 from robots.urdf_screen import ScreenedURDF, screen_urdf
 
@@ -75,6 +76,8 @@ class RobotDescription:
     sources: dict[str, str] = field(hash=False)
     link_lengths: tuple[float, float] | None = None
     jerk_limits: tuple[float, ...] | None = None
+    armature: tuple[float, ...] | None = None
+    """Rotor inertia reflected through the gear, ``Jm G^2`` [kg m^2] per joint (dynamics)."""
 
 
 DESCRIPTIONS: dict[str, RobotDescription] = {
@@ -93,6 +96,9 @@ DESCRIPTIONS: dict[str, RobotDescription] = {
                 "velocity": "pi rad/s: not a real robot; the service's default for URDFs without rate limits",
                 "acceleration": "10 rad/s^2: not a real robot; the service's default for URDFs",
                 "home": "elbow at 90 deg, where manipulability l1 l2 |sin q2| is largest",
+                "inertia": "not a real robot: uniform slender rods of 1 kg/m along each link "
+                "(docs/robots.md)",
+                "effort": "none: not a real robot",
             },
             link_lengths=(1.0, 0.8),
         ),
@@ -112,7 +118,19 @@ DESCRIPTIONS: dict[str, RobotDescription] = {
                 "the velocity limit per second, conservative for the arm's era",
                 "home": "Corke's nominal non-singular pose qn = [0, pi/4, pi, 0, pi/4, 0], with q3 "
                 "written -pi (the same pose; +pi is outside joint 3's [-225, 45] deg)",
+                "inertia": "Corke's Robotics Toolbox Puma560 (Armstrong, Khatib, Burdick 1986; "
+                "Corke and Armstrong-Helouvry 1994): link masses, centres of mass, inertias and "
+                "rotor inertia Jm G^2 (docs/robots.md)",
+                "effort": "none: no manufacturer torque table was found",
             },
+            armature=tuple(
+                jm * g * g
+                for jm, g in zip(
+                    (200e-6, 200e-6, 200e-6, 33e-6, 33e-6, 33e-6),
+                    (-62.6111, 107.815, -53.7063, 76.0364, 71.923, 76.686),
+                    strict=True,
+                )
+            ),
         ),
         RobotDescription(
             "ur5",
@@ -129,6 +147,11 @@ DESCRIPTIONS: dict[str, RobotDescription] = {
                 "(UR publishes no joint acceleration limit; only torques bound it)",
                 "home": "chosen: elbow bent 90 deg, wrist 2 at -90 deg (far from q5 = 0 and the "
                 "shoulder singularity)",
+                "inertia": "Universal Robots, 'DH parameters for calculations of kinematics and "
+                "dynamics' (masses, centres of mass); inertia tensors from UR's "
+                "Universal_Robots_ROS2_Description (cylinder approximation) (docs/robots.md)",
+                "effort": "150 N m (joints 1-3), 28 N m (wrists): Universal Robots, 'Max. joint "
+                "torques' (UR5 CB3)",
             },
         ),
         RobotDescription(
@@ -146,6 +169,10 @@ DESCRIPTIONS: dict[str, RobotDescription] = {
                 "jerk": "Franka Control Interface documentation, 'Limits for Panda' "
                 "(frankaemika.github.io/docs/control_parameters.html): 7500 rad/s^3 per joint",
                 "home": "Franka's 'ready' pose",
+                "inertia": "Gaz et al., 'Dynamic identification of the Franka Emika Panda robot "
+                "with retrieval of feasible parameters using penalty-based optimization', RA-L "
+                "2019, as in franka_ros franka_description inertial.yaml",
+                "effort": "Franka Emika datasheet: 87 N m (joints 1-4), 12 N m (5-7)",
             },
             jerk_limits=(7500.0,) * 7,
         ),
@@ -178,7 +205,9 @@ def get(name: str) -> Robot:
 def _build_shipped(name: str) -> Robot:
     d = DESCRIPTIONS[name]
     urdf = resources.files("robots").joinpath("urdf", d.urdf).read_text(encoding="utf-8")
-    model, _, _ = _reduced_model(urdf, d.tip_frame, d.base_frame)
+    model, _, screened = _reduced_model(urdf, d.tip_frame, d.base_frame)
+    if d.armature is not None:
+        model.armature = np.array(d.armature)
     closed_form = None
     if d.link_lengths is not None:
         l1, l2 = d.link_lengths
@@ -189,6 +218,7 @@ def _build_shipped(name: str) -> Robot:
         acceleration_limits=np.array(d.acceleration_limits), home=np.array(d.home),
         closed_form_ik=closed_form, sources=d.sources,
         jerk_limits=None if d.jerk_limits is None else np.array(d.jerk_limits),
+        with_dynamics=has_inertials(screened.xml, screened.chain),
     )  # fmt: skip
 
 
@@ -288,6 +318,7 @@ def load_inline(urdf: str, tip_frame: str | None = None, base_frame: str | None 
             "velocity": "the URDF; pi rad/s or 1 m/s where it gives none",
             "acceleration": "service default: 10 rad/s^2 (revolute), 5 m/s^2 (prismatic)",
         },
+        with_dynamics=has_inertials(screened.xml, screened.chain),
     )  # fmt: skip
     _store(key, robot)
     if given != key:

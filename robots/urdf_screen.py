@@ -29,8 +29,9 @@ frame) is taken when it is one of them, else the deepest (most fixed joints afte
 tree that branches through movable joints (a hand with fingers, two arms, legs) or ends in several
 equally deep leaves has no unique tip: ``InvalidURDF`` at ``robot.tip_frame`` listing the candidates.
 
-The screened model is rewritten as a minimal URDF (links and joints only): ``<visual>``,
-``<collision>``, ``<inertial>``, ``<transmission>``, ``<mimic>`` and every other element are dropped,
+The screened model is rewritten as a minimal URDF (links with their checked ``<inertial>``, see
+``robots.dynamics.screened_inertial``, and joints with their effort limits): ``<visual>``,
+``<collision>``, ``<transmission>``, ``<mimic>`` and every other element are dropped,
 so meshes are never loaded. Continuous joints become revolute joints with position limits
 ``+-CONTINUOUS_LIMIT`` (1e4 rad, the API's position bound), because pinocchio's continuous joint has a
 2-number configuration (cos, sin). Position limits are clamped to ``+-1e4``. Missing or zero velocity
@@ -48,6 +49,7 @@ import defusedxml.ElementTree as DET
 from defusedxml import DefusedXmlException
 
 from core.errors import InvalidURDF, TooLarge
+from robots.dynamics import screened_inertial
 
 MAX_URDF_BYTES = 1024 * 1024
 MAX_JOINTS = 64
@@ -164,7 +166,7 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
     ET.SubElement(out, "axis", xyz=" ".join(repr(v / norm) for v in axis))
     lim = j.find("limit")
     velocity = _rate_limit(lim, "velocity", where)
-    _rate_limit(lim, "effort", where)
+    effort = _rate_limit(lim, "effort", where)
     if jtype == "continuous":
         lower, upper = -CONTINUOUS_LIMIT, CONTINUOUS_LIMIT
     else:
@@ -175,8 +177,9 @@ def _joint_xml(j: ET.Element, jname: str, jtype: str) -> tuple[ET.Element, str]:
         (upper,) = floats(lim.get("upper"), 1, f"{where} upper limit", (0.0,))
         lower, upper = max(lower, -MAX_COORDINATE), min(upper, MAX_COORDINATE)
     ET.SubElement(
-        out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity), effort="0"
-    )
+        out, "limit", lower=repr(lower), upper=repr(upper), velocity=repr(velocity),
+        effort=repr(effort),
+    )  # fmt: skip
     return out, "revolute" if jtype == "continuous" else jtype
 
 
@@ -293,12 +296,16 @@ class _Tree:
         return path
 
 
-def _tree(links: list[str], joints: list[ET.Element]) -> _Tree:
-    """Every joint checked and copied (``_joint_xml``), the links linked into a tree."""
+def _tree(
+    links: list[str], joints: list[ET.Element], inertials: dict[str, ET.Element | None]
+) -> _Tree:
+    """Every joint checked and copied (``_joint_xml``), each link with its checked ``<inertial>``
+    (``robots.dynamics.screened_inertial``), the links linked into a tree."""
     link_set = set(links)
     tree = _Tree(ET.Element("robot", name="screened"))
     for name in links:
-        ET.SubElement(tree.out, "link", name=name)
+        inertial = screened_inertial(inertials[name], name)
+        ET.SubElement(tree.out, "link", name=name).extend([] if inertial is None else [inertial])
     for j in joints:
         jname, jtype = j.get("name", ""), j.get("type", "")
         if jtype not in JOINT_TYPES:
@@ -348,8 +355,10 @@ def screen_urdf(urdf: str, tip_frame: str | None, base_frame: str | None) -> Scr
     broken one, else return the minimal URDF and the movable chain from the root to ``tip_frame``.
     A frame given as ``None`` gets its default (``default_tip``, the root link for the base)."""
     _precheck(urdf)
-    links, joints = _links_and_joints(_parse(urdf))
-    tree = _tree(links, joints)
+    root = _parse(urdf)
+    links, joints = _links_and_joints(root)
+    inertials = {el.get("name", ""): el.find("inertial") for el in root.findall("link")}
+    tree = _tree(links, joints, inertials)
     roots = [name for name in links if name not in tree.parent_of]
     if len(roots) != 1:
         raise InvalidURDF(

@@ -21,12 +21,13 @@ from service.routes import (
     playground,
     program,
     ready,
+    retime,
     robots,
     trajectories,
 )
 from service.settings import Settings
 
-TRAJECTORY_ROUTERS = (trajectories, cartesian, compare, program)
+TRAJECTORY_ROUTERS = (trajectories, retime, cartesian, compare, program)
 """Routers whose answers are trajectories: each route gets a deadline and ``?layout=``."""
 PLANNING_ROUTERS = (robots, collision)
 """Other routers that compute: each route gets a deadline."""

@@ -14,9 +14,11 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import InputError
+from core.joint.effort import TimeScaled, shortest_for_effort
 from core.joint.motion import PointToPoint, State
 from core.joint.profiles import PROFILES
 from core.limits import JointLimits, check_boundary_rates, check_positions, check_rates
+from core.timing.path_constraints import Effort
 from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names, sample_times
 
 __all__ = ["PROFILES", "JointPlan", "PointToPoint", "State", "plan_joint"]
@@ -45,6 +47,7 @@ def plan_joint(
     max_points: int = MAX_POINTS,
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
+    effort: Effort | None = None,
 ) -> JointPlan:
     """Plan and sample a point-to-point move: the one core call of the joint-space route.
 
@@ -54,7 +57,9 @@ def plan_joint(
     (``JointLimit``); boundary rates must be within the rate limits (``JointRateLimit``) and
     honoured by the profile (``ProfileKind.boundary_rates``; ``InputError`` naming the field
     otherwise). Sampling as ``sample_times``. ``deadline`` is checked after the timing and after
-    the sampling (``TimeBudgetExceeded``).
+    the sampling (``TimeBudgetExceeded``). With ``effort`` (no ``duration``), the shortest
+    duration whose inverse-dynamics torque keeps the effort limits too
+    (``core.joint.effort.shortest_for_effort``).
     """
     limits = limits or NO_LIMITS
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
@@ -65,7 +70,23 @@ def plan_joint(
         raise InputError(f"{dof} positions for {len(names)} joints", field=("start", "positions"))
     limits.validate(dof)
     _check_boundaries(kind, motion, limits, names)
+    if effort is not None and duration is not None:
+        raise InputError(
+            "limits.effort applies when the service chooses the duration (give no duration)",
+            field=("limits", "effort"),
+        )
     profile = spec.timed(motion, limits, duration, names)
+    if effort is not None:
+        base = profile
+        profile = shortest_for_effort(  # type: ignore[assignment]
+            (lambda T: TimeScaled(base, T))
+            if motion.at_rest
+            else (lambda T: spec.timed(motion, limits, T, names)),
+            profile.duration,
+            effort,
+            names,
+            deadline,
+        )
     deadline.check("joint profile timing")
     times = sample_times(profile.duration, sample_period, samples, max_points)
     trajectory = Trajectory.from_profile(profile, times, names)

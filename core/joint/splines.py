@@ -22,6 +22,7 @@ from scipy.interpolate import CubicSpline
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
 from core.joint import durations
+from core.joint.effort import shortest_for_effort
 from core.limits import (
     JointLimits,
     check_boundary_rates,
@@ -29,6 +30,7 @@ from core.limits import (
     check_rates,
     joint_vector,
 )
+from core.timing.path_constraints import Effort
 from core.trajectory import MAX_POINTS, Peaks, Trajectory, default_joint_names, sample_times
 
 BOUNDARIES = ("clamped", "natural", "not-a-knot")
@@ -259,11 +261,13 @@ def plan_spline(
     max_points: int = MAX_POINTS,
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
+    effort: Effort | None = None,
 ) -> SplinePlan:
     """Plan and sample a spline through ``waypoints`` ``(n + 1, dof)``: the one core call of the
     spline route.
 
-    Without ``times``, knot times from ``allocate_times``; with them, a plan over known limits is
+    Without ``times``, knot times from ``allocate_times`` (with ``effort``, scaled until the
+    inverse-dynamics torque keeps the effort limits too); with them, a plan over known limits is
     ``JointRateLimit``. Waypoints and every sample must stay within ``limits.position``
     (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise).
     """
@@ -289,9 +293,24 @@ def plan_spline(
     vmax = limits.maxima(dof)[0]
     check_boundary_rates(v0, vmax, ("start_velocity",), names)
     check_boundary_rates(v1, vmax, ("goal_velocity",), names)
+    if effort is not None and times is not None:
+        raise InputError(
+            "limits.effort applies when the service allocates the times (give no times)",
+            field=("limits", "effort"),
+        )
     if times is None:
         knots = allocate_times(q, boundary, limits, v0, v1, deadline)
         profile = SplineProfile(knots, q, boundary, v0, v1)
+        if effort is not None:
+            shape = knots / knots[-1]
+            profile = shortest_for_effort(  # type: ignore[assignment]
+                lambda T: SplineProfile(shape * T, q, boundary, v0, v1),
+                profile.duration,
+                effort,
+                names,
+                deadline,
+            )
+            knots = profile.knot_times
     else:
         knots = _knot_times(times, q.shape[0])
         profile = SplineProfile(knots, q, boundary, v0, v1)

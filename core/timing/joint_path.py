@@ -36,3 +36,14 @@ class JointPath(Protocol):
         """Sorted path parameters ``(B,)`` where d2q/ds2 may jump (0 and ``length`` included): a
         timing grid contains them, so every grid interval is smooth."""
         ...
+
+
+@runtime_checkable
+class JoinedPath(JointPath, Protocol):
+    """A ``JointPath`` whose d3q/ds3 (only) may jump at ``joins`` (a C2 spline's knots): a timing
+    law need not put them in its grid, but checks its limits there (a limit's value may have a
+    kink at a join)."""
+
+    def joins(self) -> np.ndarray:
+        """Sorted path parameters ``(J,)`` where d3q/ds3 may jump."""
+        ...

@@ -26,7 +26,8 @@ class GridTiming:
     """Time-optimal s(t) under ``s' <= cap(s)`` and ``|s''| <= max_acceleration``, rest to rest.
 
     Args:
-        s: Increasing grid of path parameters from 0 to 1, shape ``(K,)``.
+        s: Increasing grid of path parameters from 0 to 1 (to any end with ``from_speeds``),
+            shape ``(K,)``.
         cap: Largest allowed s' [1/s] at each grid point, ``(K,)``, > 0 inside.
         max_acceleration: Bound on |s''| [1/s^2], > 0: one number, or one per interval ``(K-1,)``
             (for example from joint acceleration limits, which bound s'' less where joints move less).
@@ -45,8 +46,19 @@ class GridTiming:
         v2 = np.minimum(v2, np.minimum.accumulate(v2 - A) + A)
         # Backward pass: v2[i] <= v2[i+1] + 2 a_i ds_i, i.e. (v2 + A) non-decreasing from the end.
         v2 = np.minimum(v2, np.minimum.accumulate((v2 + A)[::-1])[::-1] - A)
+        self._set(s, np.sqrt(np.maximum(v2, 0.0)))
+
+    @classmethod
+    def from_speeds(cls, s: np.ndarray, sdot: np.ndarray) -> GridTiming:
+        """The profile through path speeds ``sdot`` ``(K,)`` [1/s] (zero at both ends) at the grid
+        ``s`` ``(K,)``, with constant s'' on every grid interval (a time-optimal law's answer)."""
+        self = cls.__new__(cls)
+        self._set(np.asarray(s, dtype=float), np.asarray(sdot, dtype=float))
+        return self
+
+    def _set(self, s: np.ndarray, sdot: np.ndarray) -> None:
         self.s = s
-        self.sdot = np.sqrt(np.maximum(v2, 0.0))
+        self.sdot = sdot
         ds = np.diff(s)
         mean = self.sdot[:-1] + self.sdot[1:]
         dt = np.where(mean > 0, 2.0 * ds / np.where(mean > 0, mean, 1.0), np.inf)
@@ -63,14 +75,14 @@ class GridTiming:
         tau = t - self.t[i]
         acc = self.sddot[i]
         if order == 0:
-            return np.minimum(self.s[i] + self.sdot[i] * tau + 0.5 * acc * tau**2, 1.0)
+            return np.minimum(self.s[i] + self.sdot[i] * tau + 0.5 * acc * tau**2, self.s[-1])
         if order == 1:
             return np.maximum(self.sdot[i] + acc * tau, 0.0)
         return acc
 
     def time_at(self, s: np.ndarray) -> np.ndarray:
         """Times [s] at which the profile reaches path parameters ``s``."""
-        s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+        s = np.clip(np.asarray(s, dtype=float), 0.0, self.s[-1])
         i = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
         v0, acc, ds = self.sdot[i], self.sddot[i], s - self.s[i]
         # Solve ds = v0 tau + acc tau^2 / 2 for tau >= 0, stably.

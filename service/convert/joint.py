@@ -20,9 +20,13 @@ import numpy as np
 from starlette.responses import Response
 
 from core.errors import InputError
+from core.joint.effort import peak_effort
 from core.joint.motion import PointToPoint
+from core.kinematics import Dynamics
 from core.limits import JointLimits
+from core.timing.path_constraints import Effort
 from core.trajectory import Trajectory
+from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.robot import robot_and_names
 from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
 from service.schemas.common import Limits
@@ -30,11 +34,15 @@ from service.schemas.trajectories import JointLimitsIn, JointTrajectoryRequest, 
 
 
 class JointInputs(NamedTuple):
-    """Core inputs of ``core.joint.point_to_point.plan_joint``."""
+    """Core inputs of ``core.joint.point_to_point.plan_joint`` (``effort``: ``limits.effort``
+    with the robot's dynamics; ``dynamics`` and ``gravity`` for ``peak_effort``)."""
 
     motion: PointToPoint
     limits: JointLimits
     joint_names: tuple[str, ...]
+    effort: Effort | None = None
+    dynamics: Dynamics | None = None
+    gravity: np.ndarray | None = None
 
 
 class SplineInputs(NamedTuple):
@@ -46,6 +54,9 @@ class SplineInputs(NamedTuple):
     goal_velocity: np.ndarray | None
     limits: JointLimits
     joint_names: tuple[str, ...]
+    effort: Effort | None = None
+    dynamics: Dynamics | None = None
+    gravity: np.ndarray | None = None
 
 
 def joint_limits(limits: Limits | JointLimitsIn | None, robot: Any) -> JointLimits:
@@ -80,7 +91,15 @@ def joint_inputs(request: JointTrajectoryRequest) -> JointInputs:
         start.accelerations,
         goal.accelerations,
     )
-    return JointInputs(motion, joint_limits(request.limits, robot), names)
+    dof = len(start.positions)
+    return JointInputs(
+        motion,
+        joint_limits(request.limits, robot),
+        names,
+        effort_inputs(request, robot, dof),
+        dynamics_of(robot),
+        gravity_of(request, robot),
+    )
 
 
 def spline_inputs(request: SplineRequest) -> SplineInputs:
@@ -103,7 +122,19 @@ def spline_inputs(request: SplineRequest) -> SplineInputs:
         array(request.goal_velocity),
         joint_limits(request.limits, robot),
         names,
+        effort_inputs(request, robot, dof),
+        dynamics_of(robot),
+        gravity_of(request, robot),
     )
+
+
+def effort_diagnostics(inputs: JointInputs | SplineInputs, plan: Any) -> dict[str, Any]:
+    """``peak_effort`` [N m or N] per joint of a plan (its ``profile`` at the returned times and
+    between them) when the robot has dynamics; nothing otherwise."""
+    if inputs.dynamics is None or inputs.gravity is None:
+        return {}
+    times = plan.trajectory.times
+    return {"peak_effort": peak_effort(inputs.dynamics, plan.profile, times, inputs.gravity)}
 
 
 def trajectory_response(

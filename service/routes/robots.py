@@ -80,7 +80,9 @@ def _detail(robot: Robot, urdf: str | None = None) -> RobotDetail:
             velocity=robot.velocity_limits.tolist(),
             acceleration=robot.acceleration_limits.tolist(),
             jerk=None if robot.jerk_limits is None else robot.jerk_limits.tolist(),
+            effort=None if robot.effort_limits is None else robot.effort_limits.tolist(),
         ),
+        dynamics=robot.dynamics is not None,
         home=robot.home.tolist(),
         limit_sources=dict(robot.sources),
         ik=IKInfo(

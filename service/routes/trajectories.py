@@ -45,17 +45,18 @@ async def joint_trajectory(
     started = time.perf_counter()
 
     def respond() -> Response:
-        motion, limits, names = convert.joint_inputs(body)
+        inputs = convert.joint_inputs(body)
         plan = plan_joint(
             body.profile,
-            motion,
-            limits,
+            inputs.motion,
+            inputs.limits,
             duration=body.duration,
             sample_period=body.sample_period,
             samples=body.samples,
             max_points=request.app.state.settings.max_points,
-            joint_names=names,
+            joint_names=inputs.joint_names,
             deadline=deadline,
+            effort=inputs.effort,
         )
         checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
@@ -64,6 +65,7 @@ async def joint_trajectory(
             (*plan.warnings, *checked.warnings),
             started,
             time_format,
+            **convert.effort_diagnostics(inputs, plan),
             **checked.diagnostics,
         )
 
@@ -100,6 +102,7 @@ async def spline_trajectory(
             max_points=settings.max_points,
             joint_names=inputs.joint_names,
             deadline=deadline,
+            effort=inputs.effort,
         )
         checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
@@ -110,6 +113,7 @@ async def spline_trajectory(
             time_format,
             boundary=body.boundary,
             knot_times=plan.knot_times,
+            **convert.effort_diagnostics(inputs, plan),
             **checked.diagnostics,
         )
 

@@ -95,6 +95,27 @@ RobotRef = Annotated[
 ]
 
 
+MAX_EFFORT = 1e6
+"""Largest joint effort limit [N m or N] accepted."""
+PositiveEffort = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_EFFORT)]
+MAX_GRAVITY = 1e3
+"""Largest |gravity component| [m/s^2] accepted."""
+EFFORT_DESCRIPTION = (
+    "Effort limits [N m or N], 1e-6 to 1e6, one per joint: the inverse-dynamics torque (gravity "
+    "included) along the returned motion stays within them (verified densely). Needs a robot with "
+    "dynamics (GET /v1/robots/{name}: dynamics true), else 422 validation here; 422 infeasible "
+    "naming the joint and s where gravity alone exceeds a limit. Not applied unless given."
+)
+GRAVITY_FIELD: Any = Field(
+    default=None,
+    min_length=3,
+    max_length=3,
+    description="Gravity [m/s^2] in the robot's base frame, each |.| <= 1e3; default [0, 0, -9.81]. "
+    "Used for limits.effort and peak_effort (robots with dynamics only).",
+)
+Gravity = list[Annotated[float, Field(ge=-MAX_GRAVITY, le=MAX_GRAVITY)]]
+
+
 class Limits(StrictModel):
     """Per-joint limits overriding the robot's (or required when no robot is named)."""
 
@@ -109,6 +130,9 @@ class Limits(StrictModel):
         min_length=1,
         max_length=MAX_JOINTS,
         description="Acceleration limits [rad/s^2 or m/s^2], 1e-6 to 1e6.",
+    )
+    effort: list[PositiveEffort] | None = Field(
+        default=None, min_length=1, max_length=MAX_JOINTS, description=EFFORT_DESCRIPTION
     )
 
 

@@ -47,6 +47,11 @@ class RobotLimits(BaseModel):
         default=None,
         description="Jerk limit per joint [rad/s^3 or m/s^3]; null where the maker publishes none.",
     )
+    effort: list[float] | None = Field(
+        default=None,
+        description="Effort limit per joint [N m or N] (the URDF's <limit effort>, from the maker); "
+        "null where none is known. Applied only when a request gives limits.effort.",
+    )
 
 
 class IKInfo(BaseModel):
@@ -76,6 +81,12 @@ class CollisionShape(BaseModel):
 
 class RobotDetail(RobotSummary):
     limits: RobotLimits
+    dynamics: bool = Field(
+        default=False,
+        description="Inertial parameters are known (the shipped robots, from cited sources; inline "
+        "URDFs with an <inertial> on every moving link): requests may give limits.effort, and "
+        "diagnostics report peak_effort.",
+    )
     home: list[float] = Field(description="A configuration away from singularities [rad or m].")
     limit_sources: dict[str, str] = Field(
         default_factory=dict, description="Where each kind of limit (and the home pose) comes from."

@@ -15,10 +15,12 @@ from core.joint.durations import MIN_DURATION
 from core.joint.profiles import PROFILES
 from core.joint.splines import MIN_KNOT_SPACING
 from service.schemas.common import (
+    GRAVITY_FIELD,
     MAX_DURATION,
     MAX_JOINTS,
     MIN_LIMIT,
     TOOL_FIELD,
+    Gravity,
     JointAccelerations,
     JointPositions,
     JointVelocities,
@@ -54,7 +56,8 @@ PositiveJerk = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_JERK)]
 
 
 class JointLimitsIn(Limits):
-    """Per-joint limits of a point-to-point move, with jerk (used by ``jerk_limited`` only)."""
+    """Per-joint limits of a point-to-point move, with jerk (used by ``jerk_limited`` only) and
+    effort (without ``duration`` only)."""
 
     jerk: list[PositiveJerk] | None = Field(
         default=None,
@@ -110,6 +113,7 @@ class JointTrajectoryRequest(Sampling):
         "infeasible naming the shortest feasible duration).",
     )
     limits: JointLimitsIn | None = Field(default=None, description=LIMITS_DESCRIPTION)
+    gravity: Gravity | None = GRAVITY_FIELD
 
 
 class SplineRequest(Sampling):
@@ -149,3 +153,4 @@ class SplineRequest(Sampling):
         "default zeros.",
     )
     limits: Limits | None = Field(default=None, description=LIMITS_DESCRIPTION)
+    gravity: Gravity | None = GRAVITY_FIELD
