@@ -189,7 +189,7 @@ class SCurveTiming:
                 f"no s-curve lasts {duration:.6g} s within these path limits: the shortest lasts "
                 f"{found:.6g} s",
                 field=("duration",),
-                extra={"shortest_duration": found},
+                extra={"min_duration": found},
             )
         self.duration = float(found if duration is None else duration)
         self._phases = ConstantJerkPhases(trajectory, self.duration)

@@ -126,7 +126,7 @@ class JerkLimited(ProfileKind):
                 f"no jerk-limited profile lasts {duration:.6g} s within the limits: the shortest "
                 f"feasible duration is {shortest:.6g} s{blocked}",
                 field=("duration",),
-                extra={"shortest_duration": shortest},
+                extra={"min_duration": shortest},
             )
         return JerkLimitedProfile(trajectory, motion.start, motion.goal, float(duration))
 

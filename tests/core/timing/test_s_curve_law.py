@@ -63,7 +63,7 @@ def test_s_curve_law_with_a_duration() -> None:
     # A jerk limit the duration cannot keep: Infeasible naming the shortest duration.
     with pytest.raises(Infeasible) as err:
         TIMING_LAWS["s_curve"](TimingSpec(LENGTH, ANGLE, duration=0.2, max_linear_jerk=0.1))
-    assert err.value.extra["shortest_duration"] > 0.2
+    assert err.value.extra["min_duration"] > 0.2
 
 
 def test_s_curve_law_needs_a_speed() -> None:

@@ -139,7 +139,7 @@ def test_a_given_duration_is_exact_and_a_short_one_names_the_shortest() -> None:
     with pytest.raises(Infeasible) as err:
         plan_joint("jerk_limited", motion, limits, duration=0.9 * shortest)
     assert f"{shortest:.6g} s" in str(err.value) and err.value.field == ("duration",)
-    assert err.value.extra["shortest_duration"] == pytest.approx(shortest, rel=1e-12)
+    assert err.value.extra["min_duration"] == pytest.approx(shortest, rel=1e-12)
 
 
 def test_unreachable_boundary_states_are_infeasible_with_the_reason() -> None:
