@@ -106,9 +106,8 @@ def curl_examples(text: str) -> list[CurlExample]:
                 parts.append(lines[i][1:].strip())
                 i += 1
             answer = " ".join(parts)
-        code = (
-            re.search(r'"code":\s*"(\w+)"', answer).group(1) if answer and status >= 400 else None
-        )
+        named = re.search(r'"code":\s*"(\w+)"', answer or "") if status >= 400 else None
+        code = named.group(1) if named else None
         examples.append(
             CurlExample(method, url.split(":8000", 1)[1], body, status, code, answer, first + 1)
         )
