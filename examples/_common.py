@@ -82,7 +82,7 @@ def client() -> Client:
     return Client(parser.parse_args().url)
 
 
-def expect(condition: bool, message: str) -> None:
+def expect(condition: object, message: str) -> None:
     """Exit with status 1 and say why when ``condition`` is false."""
     if not condition:
         print(f"FAILED: {message}")

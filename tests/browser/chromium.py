@@ -9,7 +9,7 @@ import pytest
 try:
     from selenium import webdriver
 except ImportError:  # pragma: no cover - the test extra installs selenium
-    webdriver = None
+    webdriver = None  # type: ignore[assignment]
 
 CHROMIUM = next(
     (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),

@@ -27,6 +27,7 @@ def server() -> Iterator[str]:
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
     """Chromium with its own profile, downloads into ``driver.downloads``, console logs kept."""
+    assert CHROMIUM is not None and CHROMEDRIVER is not None  # else NEEDS_CHROMIUM skipped
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
     for flag in CHROME_FLAGS:
@@ -42,7 +43,7 @@ def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
         service=webdriver.ChromeService(executable_path=CHROMEDRIVER), options=options
     )
     driver.set_page_load_timeout(30)
-    driver.downloads = downloads
+    driver.downloads = downloads  # type: ignore[attr-defined]
     try:
         yield driver
     finally:
