@@ -38,7 +38,9 @@ def test_the_readme_has_a_tour() -> None:
     for needle in (b'"circ"', b'"obstacles"', b'"all": true', b'"jerk_limited"'):
         assert needle in bodies, needle
     first = EXAMPLES[0]
-    assert first.url == "/v1/trajectories/joint" and first.answer, "the first request and its answer"
+    assert first.url == "/v1/trajectories/joint" and first.answer, (
+        "the first request and its answer"
+    )
 
 
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda e: e.name)
