@@ -14,7 +14,6 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import FastAPI
-from fastapi.openapi.utils import get_openapi
 from fastapi.routing import APIRoute
 
 from service.openapi_examples import REQUEST_EXAMPLES
@@ -68,20 +67,14 @@ def operation_id(route: APIRoute) -> str:
 
 
 def install(app: FastAPI) -> None:
-    """Build ``app``'s schema once, with ``REQUEST_EXAMPLES`` on the request bodies."""
+    """Wrap ``app.openapi`` (FastAPI's, as ``service.errors`` left it) so that the schema carries
+    ``REQUEST_EXAMPLES`` on the request bodies."""
+    generate = app.openapi
 
     def openapi() -> dict[str, Any]:
-        if app.openapi_schema is None:
-            schema = get_openapi(
-                title=app.title,
-                version=app.version,
-                description=app.description,
-                routes=app.routes,
-                tags=app.openapi_tags,
-            )
-            add_examples(schema)
-            app.openapi_schema = schema
-        return app.openapi_schema
+        schema = generate()
+        add_examples(schema)  # idempotent: the schema is built once and cached by FastAPI
+        return schema
 
     app.openapi = openapi  # type: ignore[method-assign]
 
