@@ -17,7 +17,7 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 RUN python -m venv /opt/venv
 COPY pyproject.toml README.md ./
-COPY deploy/slim_venv.py /usr/local/lib/slim_venv.py
+COPY deploy/slim_venv.py deploy/exclusive_requirements.py /usr/local/lib/
 COPY core ./core
 COPY robots ./robots
 COPY service ./service
@@ -25,10 +25,13 @@ COPY service ./service
 # runs: pip, setuptools and wheel leave it; C/C++ headers, static libraries and CMake/pkg-config
 # files (they only serve to build extensions) go; identical copies of a shared library in one
 # directory (wheels store libfoo.so, libfoo.so.3 and libfoo.so.3.7 as three files) become symlinks.
-# EAIK requires urchin (its URDF loader, eaik.IK_URDF) and urchin's mesh stack; the service calls
-# eaik.pybindings only, from the joint axes, so that stack (about 45 MB) never runs and leaves too.
+# EAIK requires urchin (its URDF loader, eaik.IK_URDF) and urchin's mesh and graphics stack
+# (trimesh, pyribbit, pyglet, PyOpenGL, pillow, imageio, lxml, networkx ...); the service calls
+# eaik.pybindings only, from the joint axes, so that stack (about 93 MB) never runs: every
+# distribution only urchin brings leaves (computed from the installed metadata, not a hand list).
+# hadolint ignore=SC2046
 RUN pip install . \
-    && pip uninstall -y urchin trimesh lxml networkx pycollada pillow \
+    && pip uninstall -y $(python /usr/local/lib/exclusive_requirements.py urchin) \
     && pip uninstall -y pip setuptools wheel \
     && python /usr/local/lib/slim_venv.py /opt/venv
 

@@ -178,6 +178,28 @@ def clearance_ok(clearance: Clearance, qs: np.ndarray, margin: float = 0.0) -> b
     return bool((d >= clearance.threshold + margin).all())
 
 
+TOUCH = 1e-6
+"""[m] A distance this close to 0 reads "touches" in a detail."""
+
+
+def approach_text(a: str, b: str, distance: float, would: bool = False) -> str:
+    """How close ``a`` came to ``b`` [m] in words, for a problem's ``detail``: "a comes within
+    0.0123 m of b"; "a touches b" within ``TOUCH`` of 0 (a contact located by root finding);
+    "a penetrates b by 0.0021 m" below that (never "within -0.0000 m"). Three significant
+    digits; ``would``: "would come", "would touch", "would penetrate"."""
+    d = float(distance)
+    come, touch, penetrate = (
+        ("would come", "would touch", "would penetrate")
+        if would
+        else ("comes", "touches", "penetrates")
+    )
+    if abs(d) < TOUCH:
+        return f"{a} {touch} {b}"
+    if d < 0.0:
+        return f"{a} {penetrate} {b} by {-d:.3g} m"
+    return f"{a} {come} within {d:.3g} m of {b}"
+
+
 DAMPER_INFLUENCE = 0.05
 """[m] Pairs closer than this beyond their threshold get a velocity-damper row."""
 DAMPER_GAIN = 0.02

@@ -1,37 +1,88 @@
-"""Helpers of the example scripts: an in-process client of the service and independent checks.
+"""Helpers of the example scripts: a client of a running service and independent checks.
 
-The examples call the HTTP API through FastAPI's ``TestClient`` (no server needed) and check what
-comes back against the robot's forward kinematics, with their own line geometry (scipy's Slerp),
-not the service's. ``expect`` prints and exits with status 1 when a promise does not hold.
+The examples send their requests over HTTP to a running service (``--url``, default
+``http://127.0.0.1:8000``, where the README's start command serves it), with nothing but the
+standard library (``urllib``), and check what comes back against the robot's forward kinematics
+(``robots``, installed with the service by ``pip install .``) and their own line geometry (scipy's
+Slerp), not the service's. ``expect`` prints and exits with status 1 when a promise does not hold.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import sys
+import urllib.error
+import urllib.request
 from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
+if str(ROOT) not in sys.path:  # run from a checkout without installing: import its packages
     sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
-from fastapi.testclient import TestClient  # noqa: E402
 from scipy.spatial.transform import Rotation, Slerp  # noqa: E402
 
 from core.geometry.so3 import pose_to_matrix  # noqa: E402
 from robots import registry  # noqa: E402
-from service.app import create_app  # noqa: E402
-from service.settings import Settings  # noqa: E402
 
 URL = "/v1/trajectories/cartesian"
+DEFAULT_URL = "http://127.0.0.1:8000"
+TIMEOUT_S = 120.0
 
 
-def client() -> TestClient:
-    return TestClient(create_app(Settings()))
+class Response:
+    """What the service answered: ``status_code``, ``text`` and ``json()``."""
+
+    def __init__(self, status_code: int, body: bytes) -> None:
+        self.status_code = status_code
+        self.text = body.decode("utf-8", errors="replace")
+
+    def json(self) -> Any:
+        return json.loads(self.text)
 
 
-def expect(condition: bool, message: str) -> None:
+class Client:
+    """A minimal JSON client of the service at ``base_url`` (urllib, one request at a time)."""
+
+    def __init__(self, base_url: str) -> None:
+        self.base_url = base_url.rstrip("/")
+
+    def get(self, path: str) -> Response:
+        return self._send(urllib.request.Request(self.base_url + path))
+
+    def post(self, path: str, json: Any) -> Response:
+        body = _dumps(json)
+        headers = {"content-type": "application/json"}
+        return self._send(urllib.request.Request(self.base_url + path, body, headers))
+
+    def _send(self, request: urllib.request.Request) -> Response:
+        try:
+            with urllib.request.urlopen(request, timeout=TIMEOUT_S) as answer:
+                return Response(answer.status, answer.read())
+        except urllib.error.HTTPError as error:  # 4xx and 5xx: problem+json bodies
+            return Response(error.code, error.read())
+        except urllib.error.URLError as error:
+            print(
+                f"no service at {self.base_url} ({error.reason}): start one with "
+                "`python -m service --host 127.0.0.1 --port 8000` (see the README) or pass --url"
+            )
+            sys.exit(2)
+
+
+def _dumps(value: Any) -> bytes:
+    return json.dumps(value).encode()
+
+
+def client() -> Client:
+    """The client of the service at ``--url`` (default ``DEFAULT_URL``), from the command line."""
+    parser = argparse.ArgumentParser(description=sys.modules["__main__"].__doc__)
+    parser.add_argument("--url", default=DEFAULT_URL, help=f"the service (default {DEFAULT_URL})")
+    return Client(parser.parse_args().url)
+
+
+def expect(condition: object, message: str) -> None:
     """Exit with status 1 and say why when ``condition`` is false."""
     if not condition:
         print(f"FAILED: {message}")

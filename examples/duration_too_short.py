@@ -4,7 +4,7 @@ With a fixed ``duration`` the planner never stretches time: when a joint would e
 limit the answer is 422 ``joint_rate_limit`` with the s where it first happens and the shortest
 duration that works (``min_duration``). The same line under tool speed limits is planned within the
 joint limits, and so is the line with ``duration = min_duration``. Run:
-``python examples/duration_too_short.py``.
+``python examples/duration_too_short.py [--url URL]``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The goal is a pose; IK at each point is seeded where the Jacobian's pseudo-inverse predicts, so the
 arm's null-space motion stays smooth. Checks as in ``ur5_line.py``. Run:
-``python examples/panda_line.py``.
+``python examples/panda_line.py [--url URL]``.
 """
 
 from __future__ import annotations

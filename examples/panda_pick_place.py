@@ -10,7 +10,7 @@ stop at the top of either LIN. Checked here with the robot's own forward kinemat
 - the arm keeps moving through both blends; joint speeds and accelerations stay within limits;
 - the same cycle with full stops takes longer (the saving is printed).
 
-Run: ``python examples/panda_pick_place.py``.
+Run: ``python examples/panda_pick_place.py [--url URL]``.
 """
 
 from __future__ import annotations

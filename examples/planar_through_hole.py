@@ -4,7 +4,7 @@ The arm reaches 0.2 m <= r <= 1.8 m from its base. The line from (-0.8, 0.05) to
 within 0.05 m of the base, so it enters the unreachable disc r < 0.2 m at
 s = (0.8 - sqrt(0.2^2 - 0.05^2)) / 1.6 = 0.3790. The service answers 422 ``unreachable`` at that s,
 and with ``allow_partial`` 200 with the prefix up to it (``fraction``). Run:
-``python examples/planar_through_hole.py``.
+``python examples/planar_through_hole.py [--url URL]``.
 """
 
 from __future__ import annotations

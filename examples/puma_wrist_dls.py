@@ -7,7 +7,7 @@ or ``singularity``, with the path parameter ``s``); with ``allow_partial`` it re
 could plan, braked to rest. The damped least-squares QP completes the line with every joint rate and
 position within its limits, and reports the deviation from the line it accepted near the
 singularity; a deviation over the tolerance is a 422 ``infeasible`` unless the request says
-``allow_violations`` (issue 19's rule), so the DLS request sets it. Run: ``python examples/puma_wrist_dls.py`` (exit status 0 when all of that holds).
+``allow_violations`` (issue 19's rule), so the DLS request sets it. Run: ``python examples/puma_wrist_dls.py [--url URL]`` (exit status 0 when all of that holds).
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ At q5 = 0 joints 4 and 6 line up and the Jacobian loses rank. Two lines:
    singularity, where the wrist has to turn fast (q4 and q6 turn by about pi). The service slows the
    tool down there, says so in a warning, and every joint stays within its velocity limit.
 
-Run: ``python examples/puma_wrist_singularity.py``.
+Run: ``python examples/puma_wrist_singularity.py [--url URL]``.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ stays within 1 mm and 0.01 rad of the line; the trajectory is a C2 spline throug
 the service measures it densely and splits again wherever it still strays. This script checks the
 promise itself: between every two returned points, joints interpolated linearly at 12 points, FK
 by the robot, distance to the line at most the tolerance. Run: ``python
-examples/ur5_bounded_deviation.py`` (exit status 0 when all of that holds).
+examples/ur5_bounded_deviation.py [--url URL]`` (exit status 0 when all of that holds).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ its knots on the line until joint interpolation between them passes the midpoint
 the knots decision variables, constrains the deviation of the returned joint path at dense check
 points, and searches the smallest knot count that satisfies the bound: the knots need not lie on the
 line, so fewer do. Both trajectories are checked here between every two returned points with the
-robot's own FK. Run: ``python examples/ur5_bounded_deviation_nlp.py`` (exit status 0 when the NLP
+robot's own FK. Run: ``python examples/ur5_bounded_deviation_nlp.py [--url URL]`` (exit status 0 when the NLP
 needs fewer knots and both keep the bound).
 """
 

@@ -2,7 +2,7 @@
 
 Every returned point is on the line (within 1e-6 m and 1e-6 rad, checked here with the robot's own
 forward kinematics), the last point is on the goal pose, joint speeds stay within the limits and no
-joint jumps. Run: ``python examples/ur5_line.py`` (exit status 0 when all of that holds).
+joint jumps. Run: ``python examples/ur5_line.py [--url URL]`` (exit status 0 when all of that holds).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ here with the robot's own forward kinematics and this script's own geometry:
 - joint speeds and accelerations stay within the limits; the program ends at rest on its start;
 - the same seam with full stops at the corners takes longer (the saving is printed).
 
-Run: ``python examples/ur5_weld_seam.py``.
+Run: ``python examples/ur5_weld_seam.py [--url URL]``.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import Depends, FastAPI
 
-from service import __version__, admission, deps, errors
+from service import __version__, admission, deps, errors, openapi
 from service.allocator import tune_malloc
 from service.media_type import require_json
 from service.middleware import metrics
@@ -13,6 +13,7 @@ from service.middleware.catch_all import CatchAllMiddleware
 from service.middleware.observability import ObservabilityMiddleware
 from service.middleware.write_timeout import WriteTimeoutMiddleware
 from service.routes import (
+    api_docs,
     batch,
     cartesian,
     collision,
@@ -39,15 +40,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(
         title="Trajectory Service",
         version=__version__,
-        description=(
-            "Plans robot trajectories over HTTP: joint-space profiles, C2 splines, Cartesian straight "
-            "lines (sampled IK, Taylor's bounded deviation, its optimization form, resolved-rate "
-            "control). SI units throughout: meters, radians, seconds."
-        ),
+        description=openapi.DESCRIPTION,
+        docs_url=None,  # /docs and /redoc with local assets: service/routes/api_docs.py
+        redoc_url=None,
+        generate_unique_id_function=openapi.operation_id,
     )
     app.state.settings = settings
     errors.install(app)
-    for module in (health, ready, metrics, playground):
+    openapi.install(app)
+    for module in (health, ready, metrics, playground, api_docs):
         app.include_router(module.router)
     for module in PLANNING_ROUTERS:
         app.include_router(

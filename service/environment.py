@@ -20,6 +20,7 @@ import numpy as np
 
 from core.cartesian.check import finish
 from core.cartesian.partial import MIN_FRACTION, partial_warning
+from core.clearance import approach_text
 from core.errors import Collision, InputError, PlanningError
 from core.trajectory import Trajectory
 from robots import registry
@@ -204,7 +205,7 @@ def guard(
         return Guarded(trajectory, diag, warnings=warnings)
     s = None if s_at is None else s_at(c.time)
     err = Collision(
-        f"{c.links[0]} comes within {c.distance:.4f} m of {c.links[1]} at t = {c.time:.4f} s",
+        f"{approach_text(c.links[0], c.links[1], c.distance)} at t = {c.time:.4f} s",
         s=s,
         extra={"time_from_start": c.time, "links": list(c.links), "distance": c.distance},
     )

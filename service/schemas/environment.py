@@ -1,6 +1,6 @@
 """The ``environment`` of a trajectory request: obstacles, clearance, self-collision, allowed pairs.
 
-Every size is bounded (> 0, <= ``MAX_SIZE``); names are unique; a halfspace normal must be unit to 1e-3
+Every size is bounded (``MIN_SIZE`` to ``MAX_SIZE``); names are unique; a halfspace normal must be unit to 1e-3
 (then normalized) and has no pose; at most ``MAX_OBSTACLES`` obstacles. Names that must match the
 robot (allowed pairs, obstacle names that clash with link names) are checked in
 ``service/environment.py``, which knows the robot.
@@ -18,36 +18,39 @@ from service.schemas.common import Pose, Position, StrictModel
 MAX_OBSTACLES = 256
 MAX_SIZE = 100.0
 """Largest obstacle dimension [m]."""
+MIN_SIZE = 1e-6
+"""Smallest obstacle dimension [m]: a micrometre. coal answers a cylinder of radius 1e-9 m and
+length 99 m with a distance of -1.8e308 and NaN points; down to 1e-6 m every shape measures."""
 MAX_CLEARANCE = 10.0
 """Largest clearance [m]."""
 MAX_ALLOWED_PAIRS = 4096
 NORMAL_TOLERANCE = 1e-3
 
-Size = Annotated[float, Field(gt=0.0, le=MAX_SIZE)]
+Size = Annotated[float, Field(ge=MIN_SIZE, le=MAX_SIZE)]
 Name = Annotated[str, Field(min_length=1, max_length=128)]
 
 
 class Box(StrictModel):
     type: Literal["box"]
     size: list[Size] = Field(
-        min_length=3, max_length=3, description="Full edge lengths [x, y, z] [m], each in (0, 100]."
+        min_length=3, max_length=3, description="Full edge lengths [x, y, z] [m], each 1e-6 to 100."
     )
 
 
 class Sphere(StrictModel):
     type: Literal["sphere"]
-    radius: Size = Field(description="Radius [m] in (0, 100].")
+    radius: Size = Field(description="Radius [m] 1e-6 to 100.")
 
 
 class Cylinder(StrictModel):
     type: Literal["cylinder"]
-    radius: Size = Field(description="Radius [m] in (0, 100].")
-    length: Size = Field(description="Length along the local z axis [m], centred, in (0, 100].")
+    radius: Size = Field(description="Radius [m] 1e-6 to 100.")
+    length: Size = Field(description="Length along the local z axis [m], centred, 1e-6 to 100.")
 
 
 class CapsuleShape(StrictModel):
     type: Literal["capsule"]
-    radius: Size = Field(description="Radius [m] in (0, 100].")
+    radius: Size = Field(description="Radius [m] 1e-6 to 100.")
     length: Size = Field(
         description="Distance between the two hemisphere centres along local z [m] (as in coal)."
     )

@@ -12,7 +12,12 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from core.program.segments import MAX_SEGMENTS
-from service.schemas.cartesian import MAX_ANGULAR_SPEED, MAX_LINEAR_SPEED, Tolerance
+from service.schemas.cartesian import (
+    MAX_ANGULAR_SPEED,
+    MAX_LINEAR_SPEED,
+    CartesianGoal,
+    Tolerance,
+)
 from service.schemas.common import (
     TOOL_FIELD,
     JointPositions,
@@ -80,21 +85,6 @@ class PtpGoal(StrictModel):
             raise ValueError("give exactly one of goal.pose or goal.positions")
         if self.configuration is not None and self.pose is None:
             raise ValueError("configuration goes with goal.pose")
-        return self
-
-
-class CartesianGoal(StrictModel):
-    """Goal tool pose, or goal joints whose forward kinematics is the pose."""
-
-    pose: Pose | None = Field(default=None, description="Goal tool pose in the base frame.")
-    positions: JointPositions | None = Field(
-        default=None, description="Goal joints [rad or m]: the goal pose is their FK."
-    )
-
-    @model_validator(mode="after")
-    def _one_of(self) -> Any:
-        if (self.pose is None) == (self.positions is None):
-            raise ValueError("give exactly one of goal.pose or goal.positions")
         return self
 
 

@@ -353,13 +353,13 @@ def rim_s(p0, p1, reach: float = 1.8) -> float:
 @pytest.mark.parametrize("elbow", [1.0, -1.0])
 @pytest.mark.parametrize(
     ("p0", "p1"),
-    [
+    [  # an oblique and a radial line in the default run; all six (60 plans, 2 min) in -m slow
         ((0.3, 0.8), (2.5, 0.0)),
         ((1.0, 0.0), (3.0, 0.0)),
-        ((0.0, 1.0), (0.0, 3.0)),
-        ((0.5, 0.0), (2.1, 0.0)),
-        ((1.0, 0.5), (2.5, 0.5)),
-        ((0.5, 0.5), (2.0, 2.0)),
+        pytest.param((0.0, 1.0), (0.0, 3.0), marks=pytest.mark.slow),
+        pytest.param((0.5, 0.0), (2.1, 0.0), marks=pytest.mark.slow),
+        pytest.param((1.0, 0.5), (2.5, 0.5), marks=pytest.mark.slow),
+        pytest.param((0.5, 0.5), (2.0, 2.0), marks=pytest.mark.slow),
     ],
 )
 def test_planar_line_off_the_outer_rim_is_unreachable_where_the_reach_ends(

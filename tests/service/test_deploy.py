@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import ast
 import functools
+import importlib.metadata
+import importlib.util
 import json
 import os
 import re
@@ -319,11 +322,15 @@ def test_slim_venv_removes_build_files_and_links_identical_copies(tmp_path: Path
     assert not (lib / "other.so").is_symlink()
 
 
-@pytest.mark.slow
+IMAGE_TARGET_BYTES = 700_000_000
+"""The image's size target (on the stand-in base; python:3.11-slim is smaller)."""
+
+
+@pytest.mark.container
 @pytest.mark.skipif(shutil.which("podman") is None, reason="podman is not installed")
 def test_the_image_builds_runs_and_plans(tmp_path: Path) -> None:
     """deploy/build_and_run.sh end to end: build (stand-in base without Docker Hub), HEALTHCHECK,
-    the three plans, non-root; prints the build time and image size."""
+    the three plans, non-root; prints the build time and image size, which stays under 700 MB."""
     timing = tmp_path / "timing.txt"
     result = subprocess.run(
         ["bash", str(DEPLOY / "build_and_run.sh")],
@@ -337,3 +344,34 @@ def test_the_image_builds_runs_and_plans(tmp_path: Path) -> None:
     assert result.returncode == 0, tail
     assert "smoke check: every plan checked" in result.stdout, tail
     print(timing.read_text())
+    found = re.search(r"image_bytes=(\d+)", timing.read_text())
+    assert found, timing.read_text()
+    size = int(found.group(1))
+    assert size < IMAGE_TARGET_BYTES, f"the image is {size / 1e6:.0f} MB"
+
+
+def test_the_image_drops_only_what_eaik_brings_and_the_service_never_imports() -> None:
+    """deploy/exclusive_requirements.py names urchin's mesh and graphics stack (what the Dockerfile
+    uninstalls after `pip install .`): never a distribution whose modules the service imports,
+    never one another installed distribution still requires."""
+    sys.path.insert(0, str(DEPLOY))
+    try:
+        from exclusive_requirements import exclusive
+    finally:
+        sys.path.remove(str(DEPLOY))
+    if not importlib.util.find_spec("urchin"):
+        pytest.skip("urchin is not installed (EAIK without its requirements)")
+    dropped = {name.lower() for name in exclusive(["urchin"])}
+    assert {"urchin", "trimesh", "pyglet", "pyopengl", "pyribbit"} <= dropped
+    imported = set()
+    for package in ("core", "robots", "service"):
+        for path in (REPO / package).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.Import):
+                    imported |= {a.name.split(".")[0] for a in node.names}
+                elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                    imported.add(node.module.split(".")[0])
+    providers = importlib.metadata.packages_distributions()
+    used = {d.lower() for module in imported for d in providers.get(module, [])}
+    assert not dropped & used, dropped & used
+    assert not dropped & {"numpy", "scipy", "eaik"}

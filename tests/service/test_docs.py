@@ -11,10 +11,8 @@ reverse is not checked: the contract may describe more than one branch serves.
 from __future__ import annotations
 
 import ast
-import itertools
 import json
 import re
-import shlex
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -28,6 +26,7 @@ from robots import registry
 from service import errors as service_errors
 from service.app import create_app
 from service.settings import Settings
+from tests.doc_curls import CurlExample, curl_examples, mismatches, parse_answer
 
 ROOT = Path(__file__).resolve().parents[2]
 API_MD = ROOT / "docs" / "api.md"
@@ -35,6 +34,7 @@ HTTP_METHODS = ("GET", "POST", "PUT", "PATCH", "DELETE")
 ENDPOINT = re.compile(r"\b(" + "|".join(HTTP_METHODS) + r")\s+(/[^\s`,;)]*)")
 CODE_ROW = re.compile(r"^\|\s*`([a-z_]+)`\s*\|([^|]*)\|")
 LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
+JSON = {"content-type": "application/json"}
 PENDING_DOCS = {"docs/architecture.md"}
 """Docs another team writes in this same release: a README link to one of them may dangle until
 the branches are merged; once the file exists, the link is checked like every other."""
@@ -416,58 +416,11 @@ def test_robots_md_number_cells() -> None:
 
 # --- the worked examples of docs/api.md run against the live app --------------------------------
 
-ROUND_2_FIELDS = {
-    "all",
-    "turns",
-    "configuration",
-    "fixed_joints",
-    "frames",
-    "environment",
-    "jerk",
-    "profile",
-    "speed_profile",
-    "max_linear_jerk",
-    "max_angular_jerk",
-}
-"""Request fields this release adds in other branches: an example using one of them may be refused
-as unknown (422 at that field) until the branches are merged, and is then skipped, not failed."""
-
-
-def curl_examples(text: str) -> list[tuple[str, str, bytes | None, int, str | None]]:
-    """(method, path with query, body, expected status, expected code) of every ``curl`` in a
-    ``bash`` block: the status and ``code`` a comment right after the command shows
-    (``# 422 {..., "code":"unreachable", ...}``), else 200 and None."""
-    examples = []
-    for block in re.findall(r"```bash\n(.*?)```", text, flags=re.S):
-        lines = block.replace("\\\n", " ").splitlines()
-        for i, line in enumerate(lines):
-            if not line.startswith("curl "):
-                continue
-            command = line.split(" | ")[0]
-            while True:  # a quoted body may span lines
-                try:
-                    argv = shlex.split(command)
-                    break
-                except ValueError:
-                    i += 1
-                    command += "\n" + lines[i]
-            method = argv[argv.index("-X") + 1] if "-X" in argv else "GET"
-            url = next(a for a in argv if a.startswith("localhost:8000"))
-            body = argv[argv.index("-d") + 1].encode() if "-d" in argv else None
-            comments = list(itertools.takewhile(lambda c: c.startswith("#"), lines[i + 1 :]))
-            status = re.match(r"#\s*(\d{3})\s", comments[0]) if comments else None
-            named = re.search(r'"code":\s*"(\w+)"', "\n".join(comments)) if status else None
-            expected = int(status.group(1)) if status else 200
-            code = named.group(1) if named else None
-            examples.append((method, url.removeprefix("localhost:8000"), body, expected, code))
-    return examples
-
-
 EXAMPLES = curl_examples(API_MD.read_text(encoding="utf-8"))
 
 
 def test_every_endpoint_section_has_an_example() -> None:
-    paths = {re.sub(r"\?.*", "", url) for _, url, *_ in EXAMPLES}
+    paths = {re.sub(r"\?.*", "", example.url) for example in EXAMPLES}
     patterns = [
         re.compile("^" + re.sub(r"\{[^}]+\}", "[^/]+", p) + "$")
         for _, p in documented_endpoints(api_text())
@@ -477,31 +430,51 @@ def test_every_endpoint_section_has_an_example() -> None:
     assert not missing, f"endpoints without a worked example: {missing}"
 
 
-@pytest.mark.parametrize(("method", "url", "body", "expected", "code"), EXAMPLES)
-def test_worked_example(
-    client: TestClient, method: str, url: str, body: bytes | None, expected: int, code: str | None
-) -> None:
-    if body is not None:
-        json.loads(body)  # an example's body is valid JSON
-    path = url.split("?")[0]
+def _served(app, method: str, path: str) -> bool:
+    """The app has a route for ``method path`` (in /openapi.json or not)."""
+    plain = [(r.path, r) for r in app.routes if isinstance(getattr(r, "path", None), str)]
+    return any(
+        method in (route.methods or ()) and re.fullmatch(re.sub(r"\{[^}]+\}", "[^/]+", full), path)
+        for full, route in [*api_routes(app.routes), *plain]
+    )
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=lambda e: e.name)
+def test_worked_example(example: CurlExample) -> None:
+    """The example's status and ``code``, and its documented answer (the rules of
+    ``tests/doc_curls.py``, stated at the top of docs/api.md) against the live answer."""
+    if example.body is not None:
+        json.loads(example.body)  # an example's body is valid JSON
+    path = example.url.split("?")[0]
     assert any(
-        re.fullmatch(re.sub(r"\{[^}]+\}", "[^/]+", p), path) and m == method
+        re.fullmatch(re.sub(r"\{[^}]+\}", "[^/]+", p), path) and m == example.method
         for m, p in documented_endpoints(api_text())
-    ), f"{method} {path} has no section"
-    served = client.get("/openapi.json").json()["paths"]
-    if not any(
-        re.fullmatch(re.sub(r"\{[^}]+\}", "[^/]+", p), path) and method.lower() in ops
-        for p, ops in served.items()
-    ) and path not in ("/", "/metrics"):
-        pytest.skip(f"{method} {path}: not served by this branch (added in this release)")
-    big = TestClient(create_app())  # the module's app has a tiny body limit
-    response = big.request(method, url, content=body, headers={"content-type": "application/json"})
-    answered = response.json().get("code") if response.status_code >= 400 else None
-    if (response.status_code, answered) != (expected, code) and answered == "validation":
-        errors = response.json().get("errors", [])
-        fields = {p for e in errors for p in e["loc"][1:] if isinstance(p, str)}
-        if fields & ROUND_2_FIELDS:
-            pytest.skip(f"{method} {url}: uses {sorted(fields & ROUND_2_FIELDS)}, not served here")
-    assert response.status_code == expected, response.text[:500]
-    if code is not None:
-        assert answered == code, response.text[:500]
+    ), f"{example.method} {path} has no section"
+    app = create_app()  # the module's app has a tiny body limit
+    if not _served(app, example.method, path):
+        pytest.skip(f"{example.method} {path}: not served by this branch (added in this release)")
+    response = TestClient(app).request(
+        example.method, example.url, content=example.body, headers=JSON
+    )
+    assert response.status_code == example.status, response.text[:500]
+    if example.code is not None:
+        assert response.json().get("code") == example.code, response.text[:500]
+    if example.answer is not None:
+        wrong = mismatches(parse_answer(example.answer), response.json())
+        assert not wrong, "\n".join(wrong)
+
+
+def test_answer_rules_can_fail() -> None:
+    """The comparison of documented and live answers rejects what it must."""
+    doc = parse_answer('{"a":[1.25,...,"z"],"t":".../x","n":1.0e-12,"d":0.7118,"ms":5,"o":{...}}')
+    live = {"a": [1.2504, 7, "z"], "t": "https://h/x", "n": -3e-10, "d": 0.71183, "o": {"k": 1}}
+    assert mismatches(doc, {**live, "compute_time_ms": 9.0, "ms": 5}) == []
+    assert mismatches(doc, {**live, "ms": 5, "d": 0.7119})  # past half a unit of 0.7118
+    assert mismatches(doc, {**live, "ms": 5, "a": [1.256, "z"]})
+    assert mismatches(doc, {**live, "ms": 5, "a": [1.25, "y"]})
+    assert mismatches(doc, {**live, "ms": 5, "t": "x/y"})
+    assert mismatches(doc, {**live, "ms": 5, "n": 2e-9})
+    assert mismatches(doc, {**live, "ms": 5, "o": []})
+    assert mismatches(doc, {k: v for k, v in live.items() if k != "d"} | {"ms": 5})
+    assert mismatches(parse_answer("[1, 2]"), [1, 2, 3])
+    assert mismatches(parse_answer("true"), 1)

@@ -9,6 +9,7 @@ import importlib.metadata
 import json
 import re
 import shlex
+import sys
 from pathlib import Path
 
 import pytest
@@ -85,6 +86,9 @@ def test_dockerfile_installs_the_project_and_starts_the_service() -> None:
     assert ("EXPOSE", port) in instructions
 
 
+PROJECT_PACKAGES = {"core", "robots", "service"}
+
+
 def _imported_top_level_modules() -> set[str]:
     """Top-level modules that core/, robots/ and service/ import (parsed with ast)."""
     modules: set[str] = set()
@@ -98,38 +102,76 @@ def _imported_top_level_modules() -> set[str]:
     return modules
 
 
-def test_every_runtime_dependency_is_imported_by_the_service() -> None:
-    """The image installs the runtime dependencies: each must be a module the service imports
-    (the playground's plotly.min.js is vendored, so the plotly package is not one)."""
+QP_BACKENDS = {"daqp"}
+"""Runtime dependencies the service uses by name through qpsolvers, not by import: DAQP, the dense
+QP solver of the DLS controller's exact step (``core/cartesian/rate/tick_qp.py``, first in its
+order of solvers) when a tick has obstacle rows and OSQP stops short."""
+IMPORT_NAMES = {"pin": "pinocchio"}
+"""Distributions whose modules do not come with their own files (meta-distributions)."""
+
+
+def _runtime_dependencies() -> set[str]:
     tomllib = pytest.importorskip("tomllib")
     dependencies = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
-    names = {
+    return {
         re.split(r"[<>=!~;\[ ]", d, maxsplit=1)[0].lower().replace("_", "-") for d in dependencies
     }
 
-    def top_level(name: str) -> set[str]:
-        """Top-level modules a distribution installs, from its file list (cmeel wheels such as
-        libpinocchio install under cmeel.prefix/.../site-packages/)."""
-        modules = set()
-        for file in importlib.metadata.files(name) or []:
-            parts = file.parts
-            top = parts[parts.index("site-packages") + 1 :] if "site-packages" in parts else parts
-            if top[0].endswith((".dist-info", ".data")) or top[0].startswith(".."):
-                continue
-            if len(top) > 1 or top[0].endswith((".py", ".so")):
-                modules.add(top[0].split(".")[0])
-        return modules
 
-    def modules_of(name: str) -> set[str]:
-        """A distribution's modules; a meta-distribution's (``pin``) are its requirements'."""
-        modules = top_level(name)
-        if not modules:
-            for requirement in importlib.metadata.requires(name) or []:
-                if "extra ==" not in requirement:
-                    modules |= top_level(re.split(r"[<>=!~;\[ ]", requirement, maxsplit=1)[0])
-        return modules
+def _top_level(name: str) -> set[str]:
+    """Top-level modules a distribution installs, from its file list (cmeel wheels such as
+    libpinocchio install under cmeel.prefix/.../site-packages/)."""
+    modules = set()
+    for file in importlib.metadata.files(name) or []:
+        parts = file.parts
+        top = parts[parts.index("site-packages") + 1 :] if "site-packages" in parts else parts
+        if top[0].endswith((".dist-info", ".data")) or top[0].startswith(".."):
+            continue
+        if len(top) > 1 or top[0].endswith((".py", ".so")):
+            modules.add(top[0].split(".")[0])
+    return modules
 
+
+def _modules_of(name: str) -> set[str]:
+    """A distribution's modules; a meta-distribution's (``pin``) are its requirements'."""
+    modules = _top_level(name)
+    if not modules:
+        for requirement in importlib.metadata.requires(name) or []:
+            if "extra ==" not in requirement:
+                modules |= _top_level(re.split(r"[<>=!~;\[ ]", requirement, maxsplit=1)[0])
+    return modules
+
+
+def test_every_runtime_dependency_is_imported_by_the_service() -> None:
+    """The image installs the runtime dependencies: each must be a module the service imports, or
+    a QP backend it names (the playground's plotly.min.js is vendored, so the plotly package is
+    not one)."""
+    names = _runtime_dependencies()
     imported = _imported_top_level_modules()
-    unused = {name for name in names if not modules_of(name) & imported}
+    unused = {name for name in names - QP_BACKENDS if not _modules_of(name) & imported}
     assert not unused, f"runtime dependencies no module of the service imports: {unused}"
     assert "plotly" not in names
+
+
+def test_every_module_the_service_imports_is_declared() -> None:
+    """``pip install .`` alone must bring every module core/, robots/ and service/ import: each
+    third-party import is a module of a distribution named in ``project.dependencies`` itself
+    (not one that happens to come along with another, as coal comes with pin and starlette with
+    fastapi)."""
+    names = _runtime_dependencies()
+    declared = set().union(*(_modules_of(name) for name in names))
+    third_party = _imported_top_level_modules() - set(sys.stdlib_module_names) - PROJECT_PACKAGES
+    undeclared = third_party - declared
+    assert not undeclared, f"imported but not declared in pyproject.toml: {sorted(undeclared)}"
+    assert {"coal", "starlette", "pinocchio", "eaik"} <= third_party  # the check sees them
+
+
+def test_the_exact_step_qp_solver_is_declared_and_installed() -> None:
+    """The DLS controller's exact step (tick_qp) needs a dense QP solver: DAQP is declared, and
+    qpsolvers finds it."""
+    qpsolvers = pytest.importorskip("qpsolvers")
+    assert QP_BACKENDS <= _runtime_dependencies()
+    assert QP_BACKENDS <= set(qpsolvers.available_solvers)
+    source = (ROOT / "core" / "cartesian" / "rate" / "tick_qp.py").read_text()
+    order = re.search(r"for solver in \(([^)]*)\)", source)
+    assert order and order.group(1).split(",")[0].strip().strip('"') in QP_BACKENDS

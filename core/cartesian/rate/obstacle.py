@@ -17,6 +17,7 @@ import numpy as np
 
 from core.cartesian.rate.control import RateRun, simulate
 from core.cartesian.task import CartesianTask
+from core.clearance import approach_text
 from core.errors import Collision
 from core.path import Path
 
@@ -76,7 +77,7 @@ def blocking_contact(
     s = float(np.clip(line.deviation(task.robot.fk(q)[None]).s[0], 0.0, 1.0))
     a, b = contact.links
     failure = Collision(
-        f"{a} would come within {float(contact.distance):.4f} m of {b} at s={s:.4f} "
+        f"{approach_text(a, b, float(contact.distance), would=True)} at s={s:.4f} "
         f"(t = {t:.4f} s): the line passes through it, and resolved_rate_dls keeps the clearance "
         f"only by leaving the line beyond the tolerance",
         s=s,
