@@ -53,7 +53,9 @@ OPERATION_IDS: dict[tuple[str, str], str] = {
     ("POST", "/v1/trajectories/spline"): "plan_spline_trajectory",
     ("POST", "/v1/trajectories/cartesian"): "plan_cartesian_trajectory",
     ("POST", "/v1/trajectories/program"): "plan_program_trajectory",
+    ("POST", "/v1/trajectories/retime"): "retime_trajectory",
     ("POST", "/v1/compare"): "compare_cartesian_methods",
+    ("POST", "/v1/batch"): "plan_batch",
 }
 
 

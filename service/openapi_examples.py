@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from service.schemas.batch import EXAMPLE as BATCH_EXAMPLE
+
 UR5_HOME = [0, -1.047, 1.571, -2.094, -1.571, 0]
 PANDA_READY = [0, -0.785, 0, -2.356, 0, 1.571, 0.785]
 DOWN = [0.7071068, 0.7071068, 0, 0]
@@ -169,5 +171,23 @@ REQUEST_EXAMPLES: dict[str, dict[str, dict[str, Any]]] = {
                 ],
             },
         ),
+    },
+    "retime_trajectory": {
+        "via_points": _example(
+            "Three UR5 via points, blended corners, time-optimal under the robot's limits",
+            {
+                "robot": "ur5",
+                "waypoints": [
+                    UR5_HOME,
+                    [0.3, -1.2, 1.8, -2.2, -1.3, 0.4],
+                    [0.6, -1.0, 1.5, -2.0, -1.4, 0.8],
+                ],
+                "path": "blended",
+                "max_deviation": 0.05,
+            },
+        ),
+    },
+    "plan_batch": {
+        "two_items": _example("A joint move and an FK query in one batch", BATCH_EXAMPLE),
     },
 }

@@ -102,10 +102,12 @@ def curl_examples(text: str) -> list[CurlExample]:
             status = int(start.group(1) or 200)
             parts = [start.group(2)]
             i += 1
-            while i < len(lines) and re.match(r"^#\s{2,}\S", lines[i]):
+            ndjson = "stream=ndjson" in url  # one JSON value per answer line, each on its own
+            more = r"^# \{" if ndjson else r"^#\s{2,}\S"
+            while i < len(lines) and re.match(more, lines[i]):
                 parts.append(lines[i][1:].strip())
                 i += 1
-            answer = " ".join(parts)
+            answer = ("\n" if ndjson else " ").join(parts)
         named = re.search(r'"code":\s*"(\w+)"', answer or "") if status >= 400 else None
         code = named.group(1) if named else None
         examples.append(

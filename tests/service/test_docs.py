@@ -459,7 +459,13 @@ def test_worked_example(example: CurlExample) -> None:
     assert response.status_code == example.status, response.text[:500]
     if example.code is not None:
         assert response.json().get("code") == example.code, response.text[:500]
-    if example.answer is not None:
+    if example.answer is not None and "stream=ndjson" in example.url:  # one JSON value per line
+        lines = example.answer.strip().splitlines()
+        live = [json.loads(line) for line in response.text.strip().splitlines()]
+        assert len(live) == len(lines), response.text[:500]
+        wrong = [w for d, v in zip(lines, live, strict=True) for w in mismatches(parse_answer(d), v)]
+        assert not wrong, "\n".join(wrong)
+    elif example.answer is not None:
         wrong = mismatches(parse_answer(example.answer), response.json())
         assert not wrong, "\n".join(wrong)
 
