@@ -463,7 +463,9 @@ def test_worked_example(example: CurlExample) -> None:
         lines = example.answer.strip().splitlines()
         live = [json.loads(line) for line in response.text.strip().splitlines()]
         assert len(live) == len(lines), response.text[:500]
-        wrong = [w for d, v in zip(lines, live, strict=True) for w in mismatches(parse_answer(d), v)]
+        wrong = [
+            w for d, v in zip(lines, live, strict=True) for w in mismatches(parse_answer(d), v)
+        ]
         assert not wrong, "\n".join(wrong)
     elif example.answer is not None:
         wrong = mismatches(parse_answer(example.answer), response.json())
