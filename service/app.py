@@ -14,6 +14,7 @@ from service.middleware.write_timeout import WriteTimeoutMiddleware
 from service.routes import (
     cartesian,
     collision,
+    collision_free,
     compare,
     health,
     playground,
@@ -24,7 +25,7 @@ from service.routes import (
 )
 from service.settings import Settings
 
-TRAJECTORY_ROUTERS = (trajectories, cartesian, compare, program)
+TRAJECTORY_ROUTERS = (trajectories, cartesian, compare, program, collision_free)
 """Routers whose answers are trajectories: each route gets a deadline and ``?layout=``."""
 PLANNING_ROUTERS = (robots, collision)
 """Other routers that compute: each route gets a deadline."""
