@@ -293,17 +293,24 @@ class Certifier:
         self.evaluations += 1
         return not self.clearance.collides(q, CERTIFY_MARGIN + margin)
 
-    def probably_clear(self, knots: np.ndarray, resolution: float = PROBE_STEP) -> bool:
-        """A quick yes/no before certifying: ``state_clear`` at points at most ``resolution``
-        [rad] apart along the segments through ``knots`` (middle points first). A no is sure
-        (a configuration in contact); a yes still needs ``path``."""
+    def first_contact(
+        self, knots: np.ndarray, resolution: float = PROBE_STEP
+    ) -> tuple[int, float] | None:
+        """A quick probe before certifying: ``state_clear`` at points at most ``resolution``
+        [rad] apart along the segments through ``knots`` (each segment's middle points first):
+        ``(segment, fraction)`` of the first configuration found in contact (a sure no), or
+        None (the path still needs ``path``)."""
         knots = np.asarray(knots, dtype=float)
-        for a, b in itertools.pairwise(knots):
+        for k, (a, b) in enumerate(itertools.pairwise(knots)):
             n = int(np.ceil(np.linalg.norm(b - a) / resolution))
             for t in _middle_first(n):
                 if not self.state_clear(a + t * (b - a)):
-                    return False
-        return True
+                    return k, t
+        return None
+
+    def probably_clear(self, knots: np.ndarray, resolution: float = PROBE_STEP) -> bool:
+        """No contact found by ``first_contact``."""
+        return self.first_contact(knots, resolution) is None
 
     def path(self, knots: np.ndarray, max_evaluations: int | None = None) -> Certificate:
         """``certify_polyline`` through ``knots`` ``(K, dof)`` with what is known at them."""

@@ -51,10 +51,6 @@ MAX_ATTEMPTS = 8
 """Lazy searches tried (seeds derived from the request's) before the time runs out."""
 MAX_STATES = 100_000
 """Most search-tree states of one request (bounds its memory: ~100 B per state and its margins)."""
-SHORTEN_TIME = 0.3
-"""[s] Most time spent shortening."""
-SMOOTH_TIME = 0.3
-"""[s] Most time spent smoothing."""
 BLEND_DEVIATION = 0.1
 """[rad] Largest distance of a blend from its corner (joint space)."""
 MIN_REACH = 1e-6
@@ -155,11 +151,9 @@ def find_path(
     goal = int(np.argmin(np.linalg.norm(goals - path[-1], axis=1)))
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
-    short = shorten(certifier, path, rng, t0 + min(SHORTEN_TIME, deadline.remaining()))
+    short = shorten(certifier, path, rng, deadline)
     t1 = time.perf_counter()
-    smoothed = smooth(
-        certifier, short.knots, lower, upper, t1 + min(SMOOTH_TIME, deadline.remaining())
-    )
+    smoothed = smooth(certifier, short.knots, lower, upper, deadline)
     t2 = time.perf_counter()
     report = PlannerReport(
         sampler.name, seed, iterations, states, search_ms, (t1 - t0) * 1e3, (t2 - t1) * 1e3

@@ -8,25 +8,30 @@ replaces what it skips:
    (deterministic; a search tree's path of many short edges becomes a few long ones).
 2. Random shortcuts (Geraerts and Overmars 2007): two points drawn on the path by arc length (any
    point of a segment, not only knots), joined by a certified segment when that is shorter, from
-   a generator seeded by the request; it stops after ``MAX_FAILURES`` failures in a row, after
-   ``MAX_SHORTCUTS`` tries, or at the time limit.
+   a generator seeded by the request; it stops after ``MAX_FAILURES`` failures in a row or
+   ``MAX_SHORTCUTS`` tries.
+
+The work is bounded by counts, never by the clock, so the same path and seed always give the same
+result; the request's deadline only turns a run that is too slow into ``TimeBudgetExceeded``.
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from core.budget import NO_DEADLINE, Deadline
 from core.motion.certify import Certifier
 
-MAX_SHORTCUTS = 60
+MAX_SHORTCUTS = 20
 """Most random shortcuts tried."""
-MAX_FAILURES = 12
+MAX_FAILURES = 5
 """Random shortcuts that fail in a row before the pass ends."""
 SHORTCUT_EVALUATIONS = 150
 """Work bound of one shortcut's certification (a segment that needs more is not taken)."""
+REDUCE_TRIES = 8
+"""Later knots the vertex reduction tries from each kept knot (farthest first)."""
 MIN_GAIN = 1e-6
 """[rad] A shortcut must shorten the path by at least this."""
 
@@ -53,14 +58,15 @@ def shorten(
     certifier: Certifier,
     knots: np.ndarray,
     rng: np.random.Generator,
-    until: float,
+    deadline: Deadline = NO_DEADLINE,
 ) -> Shortened:
     """Shorten ``knots`` ``(K, dof)`` (a certified path) by vertex reduction, then random
-    shortcuts until ``until`` (a ``time.perf_counter()`` value)."""
-    knots, tries = _reduce(certifier, np.asarray(knots, dtype=float), until)
+    shortcuts drawn from ``rng``."""
+    knots, tries = _reduce(certifier, np.asarray(knots, dtype=float), deadline)
     failures = 0
     for _ in range(MAX_SHORTCUTS):
-        if failures >= MAX_FAILURES or time.perf_counter() >= until or len(knots) < 3:
+        deadline.check("shortening the path")
+        if failures >= MAX_FAILURES or len(knots) < 3:
             break
         cand = _shortcut(knots, rng)
         if cand is None:
@@ -78,20 +84,22 @@ def shorten(
     return Shortened(knots, tries)
 
 
-def _reduce(certifier: Certifier, knots: np.ndarray, until: float) -> tuple[np.ndarray, int]:
-    """Greedy vertex reduction: ``(knots kept, segments tried)``."""
+def _reduce(
+    certifier: Certifier, knots: np.ndarray, deadline: Deadline
+) -> tuple[np.ndarray, int]:
+    """Greedy vertex reduction: ``(knots kept, segments tried)``; from each kept knot at most
+    ``REDUCE_TRIES`` later knots are tried, farthest first."""
     keep, i, tries = [0], 0, 0
     n = len(knots)
     while i < n - 1:
-        j = n - 1
-        while j > i + 1 and time.perf_counter() < until:
+        j = i + 1
+        for far in range(n - 1, max(i + 1, n - 1 - REDUCE_TRIES), -1):
+            deadline.check("shortening the path")
             tries += 1
-            pair = knots[[i, j]]
+            pair = knots[[i, far]]
             if certifier.probably_clear(pair) and certifier.path(pair, SHORTCUT_EVALUATIONS).ok:
+                j = far
                 break
-            j -= 1
-        else:
-            j = i + 1 if j > i + 1 else j  # out of time: keep the path's own next knot
         keep.append(j)
         i = j
     return knots[keep], tries

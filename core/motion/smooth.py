@@ -13,20 +13,22 @@ trajectories with sequential convex optimization", RSS 2013): the clearance rows
 to meters along the distance's gradient), taken at every interior knot and at the middle of every
 segment (``c`` a knot or the mean of two). With squared segment lengths as the cost, the optimum
 spaces the knots evenly along a path pulled taut against the obstacles: smoothing shortens.
-Every round's result is certified as a whole (``core.motion.certify``) and kept only then, and
-only when it is shorter; otherwise the trust region halves. The shortened path is kept when no
-round succeeds.
+Between those check points a segment may still pass too close: each contact that the quick probe
+or the certification of a round's result finds becomes one more linearized row, at that very
+configuration (a cutting plane), and the QP is solved again (at most ``MAX_CUTS`` times). A
+round's result is kept only once certified as a whole (``core.motion.certify``) and shorter;
+otherwise the trust region halves. The shortened path is kept when no round succeeds.
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
 import osqp
 from scipy import sparse
 
+from core.budget import NO_DEADLINE, Deadline
 from core.clearance import linearized_clearance_rows, stacked_rows
 from core.motion.certify import Certifier
 from core.motion.shorten import path_length
@@ -45,6 +47,13 @@ MAX_ROUNDS = 3
 """Most QP rounds."""
 MIN_GAIN = 1e-3
 """Relative shortening below which the rounds stop."""
+MARGIN = 0.01
+"""[m] The linearized rows ask this much beyond each pair's threshold: the smoothed path keeps
+this margin where it can, which also keeps its certification cheap (the work of a certification
+grows as the margin shrinks)."""
+MAX_CUTS = 6
+"""Contacts of one round's solution cut off (a row there, solved again) before the round fails."""
+SOLVED = (int(osqp.SolverStatus.OSQP_SOLVED), int(osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
 OSQP_SETTINGS: dict[str, float | int | bool] = {
     "eps_abs": 1e-6,
     "eps_rel": 1e-6,
@@ -88,84 +97,125 @@ def smooth(
     knots: np.ndarray,
     lower: np.ndarray,
     upper: np.ndarray,
-    until: float,
+    deadline: Deadline = NO_DEADLINE,
 ) -> Smoothed:
     """Smooth the certified path through ``knots`` ``(K, dof)`` within the joint limits ``lower``,
-    ``upper`` ``(dof,)`` until ``until`` (a ``time.perf_counter()`` value)."""
+    ``upper`` ``(dof,)`` (bounded by counts, not by the clock: ``MAX_ROUNDS`` rounds of at most
+    ``MAX_CUTS`` re-solves)."""
     best = np.asarray(knots, dtype=float)
     current = resample(best)
     if len(current) < 3:
         return Smoothed(best, 0, 0)
     best_length = path_length(best)
     trust, rounds, accepted = TRUST_REGION, 0, 0
-    while rounds < MAX_ROUNDS and trust >= MIN_TRUST and time.perf_counter() < until:
+    while rounds < MAX_ROUNDS and trust >= MIN_TRUST:
+        deadline.check("smoothing the path")
         rounds += 1
-        candidate = _qp_round(certifier, current, lower, upper, trust)
+        candidate = _round(certifier, _Qp(certifier, current, lower, upper), trust, best_length)
         if candidate is None:
             trust /= 2
             continue
         length = path_length(candidate)
-        if (
-            length < best_length
-            and certifier.probably_clear(candidate)
-            and certifier.path(candidate).ok
-        ):
-            gain = (best_length - length) / best_length
-            best, best_length, current = candidate, length, candidate
-            accepted += 1
-            if gain < MIN_GAIN:
-                break
-        else:
-            trust /= 2
+        gain = (best_length - length) / best_length
+        best, best_length, current = candidate, length, candidate
+        accepted += 1
+        if gain < MIN_GAIN:
+            break
     return Smoothed(best, rounds, accepted)
 
 
-def _qp_round(
-    certifier: Certifier, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray, trust: float
-) -> np.ndarray | None:
-    """One QP about the knots ``q0`` ``(N, dof)``: the new knots, or None when OSQP fails."""
-    N, dof = q0.shape
-    n = N - 2
-    D1 = sparse.diags([-np.ones(N - 1), np.ones(N - 1)], [0, 1], shape=(N - 1, N))
-    D2 = sparse.diags(
-        [np.ones(N - 2), -2 * np.ones(N - 2), np.ones(N - 2)], [0, 1, 2], shape=(N - 2, N)
-    )
-    H = (D1.T @ D1 + ACCELERATION_WEIGHT * D2.T @ D2).tocsc()
-    inner = np.arange(1, N - 1)
-    fixed = np.array([0, N - 1])
-    eye = sparse.identity(dof, format="csc")
-    P = sparse.kron(2 * H[inner][:, inner], eye, format="csc")
-    c = sparse.kron(2 * H[inner][:, fixed], eye) @ q0[fixed].ravel()
-    # clearance rows at interior knots and segment middles, as rows over every knot
-    A_checks = sparse.vstack([sparse.identity(N, format="csr")[inner], 0.5 * (abs(D1))]).tocsr()
-    checks = A_checks @ q0
-    W, lb = stacked_rows(linearized_clearance_rows(certifier.clearance, checks), len(checks), dof)
-    box_lo = np.maximum(np.repeat(lower[None], n, 0), q0[inner] - trust).ravel()
-    box_hi = np.minimum(np.repeat(upper[None], n, 0), q0[inner] + trust).ravel()
-    rows = [sparse.identity(n * dof, format="csc")]
-    lo, hi = [box_lo], [box_hi]
-    if W is not None:
-        M = W @ sparse.kron(A_checks, eye, format="csc")  # rows over the stacked knots
-        cols = (dof * inner[:, None] + np.arange(dof)).ravel()
-        ends = (dof * fixed[:, None] + np.arange(dof)).ravel()
-        rows.append(M[:, cols])
-        lo.append(lb - M[:, ends] @ q0[fixed].ravel())
-        hi.append(np.full(len(lb), np.inf))
-    solver = osqp.OSQP()
-    solver.setup(
-        P=sparse.triu(P, format="csc"),
-        q=np.asarray(c),
-        A=sparse.vstack(rows, format="csc"),
-        l=np.concatenate(lo),
-        u=np.concatenate(hi),
-        **OSQP_SETTINGS,
-    )
-    solver.warm_start(x=q0[inner].ravel())
-    result = solver.solve(raise_error=False)
-    if result.info.status_val not in (
-        osqp.SolverStatus.OSQP_SOLVED,
-        osqp.SolverStatus.OSQP_SOLVED_INACCURATE,
-    ):
-        return None
-    x = np.clip(result.x.reshape(n, dof), lower, upper)
-    return np.vstack([q0[:1], x, q0[-1:]])
+def _round(certifier: Certifier, qp: _Qp, trust: float, longest: float) -> np.ndarray | None:
+    """The QP's knots once certified and shorter than ``longest``, cutting off each contact the
+    probe or the certification finds (a row at that configuration) and solving again, at most
+    ``MAX_CUTS`` times; None when that does not succeed."""
+    for _ in range(MAX_CUTS + 1):
+        candidate = qp.solve(trust)
+        if candidate is None or path_length(candidate) >= longest:
+            return None
+        where = certifier.first_contact(candidate)
+        if where is None:
+            cert = certifier.path(candidate)
+            if cert.ok:
+                return candidate
+            if not cert.contact or cert.failed_at is None:
+                return None
+            where = _locate(candidate, cert.failed_at)
+        qp.cut(candidate, *where)
+    return None
+
+
+def _locate(knots: np.ndarray, s: float) -> tuple[int, float]:
+    """``(segment, fraction)`` of arc length ``s`` along the segments through ``knots``."""
+    seg = np.linalg.norm(np.diff(knots, axis=0), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    k = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1))
+    return k, float(np.clip((s - cum[k]) / seg[k], 0.0, 1.0)) if seg[k] > 0 else 0.0
+
+
+class _Qp:
+    """The QP of one round about the knots ``q0`` ``(N, dof)`` (module docstring), built once;
+    ``cut`` adds the linearized rows at a configuration of a rejected candidate (segment k at
+    fraction t, as a combination of its two knots)."""
+
+    def __init__(
+        self, certifier: Certifier, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray
+    ) -> None:
+        N, dof = q0.shape
+        self.certifier, self.q0, self.lower, self.upper = certifier, q0, lower, upper
+        D1 = sparse.diags([-np.ones(N - 1), np.ones(N - 1)], [0, 1], shape=(N - 1, N))
+        D2 = sparse.diags(
+            [np.ones(N - 2), -2 * np.ones(N - 2), np.ones(N - 2)], [0, 1, 2], shape=(N - 2, N)
+        )
+        H = (D1.T @ D1 + ACCELERATION_WEIGHT * D2.T @ D2).tocsc()
+        self.inner, fixed = np.arange(1, N - 1), np.array([0, N - 1])
+        eye = sparse.identity(dof, format="csc")
+        self.P = sparse.kron(2 * H[self.inner][:, self.inner], eye, format="csc")
+        self.c = sparse.kron(2 * H[self.inner][:, fixed], eye) @ q0[fixed].ravel()
+        self.cols = (dof * self.inner[:, None] + np.arange(dof)).ravel()
+        self.ends = (dof * fixed[:, None] + np.arange(dof)).ravel()
+        # rows at interior knots and segment middles, as rows over every knot
+        mix = sparse.vstack([sparse.identity(N, format="csr")[self.inner], 0.5 * abs(D1)]).tocsr()
+        self.rows: list[sparse.csc_matrix] = []
+        self.bounds: list[np.ndarray] = []
+        self._add(mix, mix @ q0)
+
+    def _add(self, mix: sparse.csr_matrix, checks: np.ndarray) -> None:
+        """Linearized rows at the configurations ``checks`` = ``mix @ knots`` (new knots)."""
+        N, dof = self.q0.shape
+        rows = linearized_clearance_rows(self.certifier.clearance, checks, margin=MARGIN)
+        W, lb = stacked_rows(rows, len(checks), dof)
+        if W is None:
+            return
+        M = W @ sparse.kron(mix, sparse.identity(dof, format="csc"), format="csc")
+        self.rows.append(M[:, self.cols])
+        self.bounds.append(lb - M[:, self.ends] @ self.q0[[0, N - 1]].ravel())
+
+    def cut(self, candidate: np.ndarray, k: int, t: float) -> None:
+        """Rows at ``candidate``'s segment ``k`` fraction ``t`` (where it is too close)."""
+        N = len(self.q0)
+        mix = sparse.csr_matrix(([1.0 - t, t], ([0, 0], [k, k + 1])), shape=(1, N))
+        self._add(mix, mix @ candidate)
+
+    def solve(self, trust: float) -> np.ndarray | None:
+        """The QP's knots within ``trust`` [rad] of ``q0``, or None when OSQP fails."""
+        n, dof = len(self.inner), self.q0.shape[1]
+        inner = self.q0[self.inner]
+        box_lo = np.maximum(np.repeat(self.lower[None], n, 0), inner - trust).ravel()
+        box_hi = np.minimum(np.repeat(self.upper[None], n, 0), inner + trust).ravel()
+        lb = np.concatenate([box_lo, *self.bounds])
+        ub = np.concatenate([box_hi, np.full(len(lb) - len(box_lo), np.inf)])
+        solver = osqp.OSQP()
+        solver.setup(
+            P=sparse.triu(self.P, format="csc"),
+            q=np.asarray(self.c),
+            A=sparse.vstack([sparse.identity(n * dof, format="csc"), *self.rows], format="csc"),
+            l=lb,
+            u=ub,
+            **OSQP_SETTINGS,
+        )
+        solver.warm_start(x=inner.ravel())
+        result = solver.solve(raise_error=False)
+        if result.info.status_val not in SOLVED:
+            return None
+        x = np.clip(result.x.reshape(n, dof), self.lower, self.upper)
+        return np.vstack([self.q0[:1], x, self.q0[-1:]])
