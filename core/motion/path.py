@@ -21,6 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+SHORTEST = 1e-12
+"""A line between two blends shorter than this (relative to the path length so far) is dropped:
+its path parameter would not advance in double precision."""
 STRAIGHT = 1e-9
 """[rad] Turns smaller than this are not corners (neither blended nor stopped at)."""
 
@@ -72,7 +75,7 @@ class BlendedPath:
         for k in range(K - 1):
             a = knots[k] + cut[k] * unit[k]
             line = float(max(length[k] - cut[k] - cut[k + 1], 0.0))
-            if line > 0:
+            if line > SHORTEST * max(1.0, starts[-1]):  # shorter: lost in the sum of lengths
                 pieces.append(("line", (a, unit[k])))
                 starts.append(starts[-1] + line)
             if k + 1 in arcs:

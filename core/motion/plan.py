@@ -40,13 +40,24 @@ from core.trajectory import MAX_POINTS, Trajectory, sample_times
 
 DEFAULT_SAMPLER: Sampler = RRTConnect()
 """The sampling planner."""
-SEARCH_RESOLUTION = 0.1
+SEARCH_RESOLUTION = 0.15
 """[rad] Step of the lazy search's segment checks (its path is certified afterwards)."""
+SEARCH_EDGE = 0.5
+"""[rad] Longest tree edge of the search (measured on the MBM Panda problems: OMPL's default, a
+fifth of the joint box's diagonal, 2.6 rad for the Panda, took 8x longer on the cage problems)."""
 SEARCH_MARGIN = 0.0
 """[m] Extra clearance the lazy search asks of the configurations it checks."""
 REPAIR_EDGE = 0.5
 """[rad] Longest tree edge of a repair search (its edges certified as they grow: shorter edges
 are cheaper to certify than they cost in extra tree states, on the MBM Panda problems)."""
+REPAIR_QUESTIONS = 3000
+"""Most questions (configurations and certified segments) of one repair search: a segment that
+cannot be repaired within them sends the search back to a fresh start (a count, not a time, so the
+answer does not depend on the machine's speed)."""
+REPAIR_DEPTH = 2
+"""Levels of finer lazy searches a segment's repair tries before a certified search."""
+REPAIR_REFINE = 3.0
+"""Each level of repair checks segments this many times more finely."""
 MAX_ATTEMPTS = 8
 """Lazy searches tried (seeds derived from the request's) before the time runs out."""
 MAX_STATES = 100_000
@@ -130,13 +141,14 @@ def find_path(
         if left <= 0:
             break
         lazy = SearchProblem(
-            q_start, goals, lower, upper, certifier.state_clear, None, _seed(seed, attempt), left,
-            MAX_STATES, SEARCH_RESOLUTION,
+            q_start, goals, lower, upper, lambda q: certifier.state_clear(q, SEARCH_MARGIN), None,
+            _seed(seed, attempt), left, MAX_STATES, SEARCH_RESOLUTION, SEARCH_EDGE,
         )  # fmt: skip
         found = sampler.search(lazy)
         iterations, states = iterations + found.iterations, states + found.states
         if found.path is not None:
-            path = _repair(certifier, found.path, lower, upper, _seed(seed, attempt), end, sampler)
+            search = _Search(certifier, lower, upper, sampler, end)
+            path = _repair(search, found.path, _seed(seed, attempt))
             if path is not None:
                 break
     search_ms = (time.perf_counter() - started) * 1e3
@@ -168,43 +180,59 @@ def _seed(seed: int, attempt: int) -> int:
     return int(seed) + attempt * 1_000_003
 
 
-def _repair(
-    certifier: Certifier,
-    path: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    seed: int,
-    end: float,
-    sampler: Sampler,
-) -> np.ndarray | None:
-    """``path`` with every segment certified: a segment that is not is replaced by the path of a
-    search between its ends whose tree edges are certified as they grow (None when that search
-    finds nothing before ``end``, a ``time.perf_counter()`` value)."""
-    out = [path[:1]]
-    for a, b in itertools.pairwise(path):
-        if certifier.path(np.vstack([a, b])).ok:
-            out.append(b[None])
-            continue
-        left = end - time.perf_counter()
+@dataclass(frozen=True)
+class _Search:
+    """What every search of one ``find_path`` shares."""
+
+    certifier: Certifier
+    lower: np.ndarray
+    upper: np.ndarray
+    sampler: Sampler
+    end: float
+
+    def run(
+        self, a: np.ndarray, b: np.ndarray, seed: int, resolution: float | None
+    ) -> np.ndarray | None:
+        """A search from ``a`` to ``b``: lazy at ``resolution`` (its segments to be certified), or
+        with every tree edge certified (``resolution`` None); at most ``REPAIR_QUESTIONS``."""
+        left = self.end - time.perf_counter()
         if left <= 0:
             return None
-        sub = sampler.search(
+        c = self.certifier
+        lazy = resolution is not None
+        found = self.sampler.search(
             SearchProblem(
-                a,
-                b[None],
-                lower,
-                upper,
-                certifier.state_ok,
-                certifier.edge_ok,
-                seed,
-                left,
-                MAX_STATES,
-                max_edge=REPAIR_EDGE,
+                a, b[None], self.lower, self.upper,
+                (lambda q: c.state_clear(q, SEARCH_MARGIN)) if lazy else c.state_ok,
+                None if lazy else c.edge_ok, seed, left, REPAIR_QUESTIONS,
+                resolution or SEARCH_RESOLUTION, REPAIR_EDGE,
             )
-        )
-        if sub.path is None:
+        )  # fmt: skip
+        return found.path
+
+
+def _repair(search: _Search, path: np.ndarray, seed: int, depth: int = 0) -> np.ndarray | None:
+    """``path`` with every segment certified. A segment that is not is replaced by the path of a
+    lazy search between its ends at a finer resolution (``SEARCH_RESOLUTION`` /
+    ``REPAIR_REFINE`` per level, repaired in turn, ``REPAIR_DEPTH`` levels), and when that finds
+    nothing new, of a search whose tree edges are certified as they grow. None when a segment
+    cannot be repaired within ``REPAIR_QUESTIONS`` per search (or before the time limit)."""
+    out = [path[:1]]
+    for a, b in itertools.pairwise(path):
+        if search.certifier.path(np.vstack([a, b])).ok:
+            out.append(b[None])
+            continue
+        fixed = None
+        if depth < REPAIR_DEPTH:
+            finer = SEARCH_RESOLUTION / REPAIR_REFINE ** (depth + 1)
+            detour = search.run(a, b, seed, finer)
+            if detour is not None and len(detour) > 2:
+                fixed = _repair(search, detour, seed, depth + 1)
+        if fixed is None:
+            fixed = search.run(a, b, seed, None)
+        if fixed is None:
             return None
-        out.append(sub.path[1:])
+        out.append(fixed[1:])
     return np.vstack(out)
 
 
