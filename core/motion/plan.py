@@ -26,17 +26,17 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import Collision, InputError, NoPathFound
-from core.joint.durations import MIN_DURATION
 from core.limits import JointLimits
 from core.motion.certify import Certifier
 from core.motion.clearance import GroupClearance
 from core.motion.goals import Goals, clear_goals
 from core.motion.path import BlendedPath
+from core.motion.sample import certified_samples, stop_and_go_samples
 from core.motion.sampler import RRTConnect, Sampler, SearchProblem
 from core.motion.shorten import path_length, shorten
 from core.motion.smooth import smooth
-from core.motion.timing import TIMINGS, Motion, StopAndGo, time_path
-from core.trajectory import MAX_POINTS, Trajectory, sample_times
+from core.motion.timing import TIMINGS
+from core.trajectory import MAX_POINTS, Trajectory
 
 DEFAULT_SAMPLER: Sampler = RRTConnect()
 """The sampling planner."""
@@ -358,24 +358,18 @@ def plan_motion(
     )  # fmt: skip
     task.deadline.check("collision-free planning")
     q_goal = goals.positions[found.goal]
-    motion: Motion
+    sampling = (task.joint_names, task.sample_period, task.samples, task.max_points)
     if found.path.length <= 0:  # the goal is the start: stand still
         waypoints, length = found.knots[:1], 0.0
-        motion = StopAndGo(waypoints, lim.velocity, lim.acceleration, lim.velocity)
+        trajectory = stop_and_go_samples(waypoints, lim, *sampling)
     elif task.timing == "jerk_limited":
-        assert lim.jerk is not None  # checked above
         waypoints = found.shortened
-        motion = StopAndGo(waypoints, lim.velocity, lim.acceleration, lim.jerk)
+        trajectory = stop_and_go_samples(waypoints, lim, *sampling)
         length = path_length(waypoints)
     else:
-        waypoints, length = found.knots, found.path.length
-        motion = time_path(found.path, lim.velocity, lim.acceleration)
-    duration = max(float(motion.duration), MIN_DURATION)
-    times = sample_times(duration, task.sample_period, task.samples, task.max_points)
-    q, qd, qdd = motion.sample(np.minimum(times, motion.duration))
-    q[0], q[-1] = task.q_start, q_goal
+        trajectory, path = certified_samples(Certifier(clearance), found.path, lim, *sampling)
+        waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
-    trajectory = Trajectory(times, q, qd, qdd, task.joint_names)
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,
         found.planner, q_goal, goals.labels[found.goal], task.timing,

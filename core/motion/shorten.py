@@ -84,9 +84,7 @@ def shorten(
     return Shortened(knots, tries)
 
 
-def _reduce(
-    certifier: Certifier, knots: np.ndarray, deadline: Deadline
-) -> tuple[np.ndarray, int]:
+def _reduce(certifier: Certifier, knots: np.ndarray, deadline: Deadline) -> tuple[np.ndarray, int]:
     """Greedy vertex reduction: ``(knots kept, segments tried)``; from each kept knot at most
     ``REDUCE_TRIES`` later knots are tried, farthest first."""
     keep, i, tries = [0], 0, 0

@@ -87,8 +87,9 @@ def resample(knots: np.ndarray, spacing: float = KNOT_SPACING, most: int = MAX_K
     out = [knots[:1]]
     for k, length in enumerate(seg):
         n = max(int(np.ceil(length / spacing)), 1)
-        t = np.arange(1, n + 1)[:, None] / n
+        t = np.arange(1, n)[:, None] / n
         out.append(knots[k] + t * (knots[k + 1] - knots[k]))
+        out.append(knots[k + 1 : k + 2])  # the knot itself, exactly
     return np.vstack(out)
 
 

@@ -25,7 +25,6 @@ from typing import Protocol
 import numpy as np
 
 from core.motion.path import BlendedPath
-from core.timing.joint_path import JointPath
 from core.timing.s_curve import SCurveTiming
 from core.timing.speed_limited import GridTiming
 
@@ -38,27 +37,35 @@ MAX_GRID = 20_000
 
 
 class PathLaw(Protocol):
-    """s(t) from 0 to ``length`` of a path at rest at both ends."""
+    """s(t) from 0 to ``length`` of a path at rest at both ends; ``time_at`` inverts it."""
 
     duration: float
 
     def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...
 
+    def time_at(self, s: np.ndarray) -> np.ndarray: ...
+
 
 class Motion(Protocol):
-    """A timed joint motion: ``duration`` [s] and ``sample(times)`` -> q, q', q''."""
+    """A timed joint motion: ``duration`` [s], ``sample(times)`` -> q, q', q'', and the instants
+    [s] where it stops at a corner (``stops``)."""
 
     duration: float
 
     def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
+    def stops(self) -> np.ndarray: ...
+
 
 class PathMotion:
     """Joint motion along ``path`` timed by ``law``: ``sample(times)`` -> q, q', q''."""
 
-    def __init__(self, path: JointPath, law: PathLaw) -> None:
+    def __init__(self, path: BlendedPath, law: PathLaw) -> None:
         self.path, self.law = path, law
         self.duration = float(law.duration)
+
+    def stops(self) -> np.ndarray:
+        return np.asarray(self.law.time_at(self.path.stops()), dtype=float)
 
     def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s, sd, sdd = (np.asarray(self.law(times, k), dtype=float) for k in range(3))
@@ -79,6 +86,9 @@ class _Scaled:
 
     def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
         return self.length * np.asarray(self.law(t, order), dtype=float)
+
+    def time_at(self, s: np.ndarray) -> np.ndarray:
+        return self.law.time_at(np.asarray(s, dtype=float) / self.length)
 
 
 def grid_timing(path: BlendedPath, velocity: np.ndarray, acceleration: np.ndarray) -> PathLaw:
@@ -134,6 +144,9 @@ class StopAndGo:
                                           max_jerk=bound[2]))  # fmt: skip
         self.starts = np.concatenate([[0.0], np.cumsum([law.duration for law in self.laws])])
         self.duration = float(self.starts[-1])
+
+    def stops(self) -> np.ndarray:
+        return self.starts[1:-1].copy()
 
     def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         times = np.asarray(times, dtype=float)
