@@ -7,11 +7,11 @@ following with bounded acceleration and velocity", RSS 2012): with unit directio
 after it, ``l = min(|seg_a| / 2, |seg_b| / 2, deviation / tan(alpha / 4))``, so it passes within
 ``deviation`` [rad] of the corner; its radius is ``r = l / tan(alpha / 2)``. The path
 parameter s is joint-space arc length, so ``|dq/ds| = 1``, and every derivative is exact:
-``d2q/ds2 = 0`` on the lines and ``-(q - c) / r^2`` on the arcs. A deviation of 0 keeps a corner
+``d2q/ds2 = 0`` on the lines and the normal towards the centre over ``r`` on the arcs. A deviation of 0 keeps a corner
 sharp: the direction turns there, so the motion stops there (``stops``). ``BlendedPath`` implements ``core.timing.joint_path.JointPath``.
 
 ``speed_bounds`` gives, per piece, a bound on how far each joint moves per unit s (a line: its
-direction's components; an arc: ``sqrt(x_j^2 + y_j^2)`` of its two unit axes), the input of
+direction's components; an arc: ``sqrt(y_j^2 + n_j^2)`` of its two unit axes), the input of
 ``core.motion.certify.certify``.
 """
 
@@ -30,21 +30,23 @@ STRAIGHT = 1e-9
 
 @dataclass(frozen=True)
 class Arc:
-    """A blend: ``q(phi) = center + radius (x cos(phi) + y sin(phi))``, ``phi`` in ``[0, angle]``.
+    """A blend: ``q(phi) = start + radius (sin(phi) y + (1 - cos(phi)) n)``, ``phi`` in
+    ``[0, angle]`` (written without the centre, and ``1 - cos`` as ``2 sin^2(phi / 2)``, so an
+    arc of a huge radius through a corner that barely turns stays exact).
 
     Attributes:
         corner: Index of the knot it rounds.
-        center: ``(dof,)``.
+        start: ``(dof,)`` where it leaves the incoming segment.
         radius: [rad] > 0.
-        x, y: ``(dof,)`` orthonormal axes of its plane (``y`` along the incoming segment).
+        y, n: ``(dof,)`` orthonormal: the incoming direction and the normal towards the centre.
         angle: Turn angle [rad] in (0, pi).
     """
 
     corner: int
-    center: np.ndarray
+    start: np.ndarray
     radius: float
-    x: np.ndarray
     y: np.ndarray
+    n: np.ndarray
     angle: float
 
 
@@ -130,11 +132,12 @@ class BlendedPath:
             phi = (u / arc.radius)[:, None]
             c, sn = np.cos(phi), np.sin(phi)
             if order == 0:
-                out[mask] = arc.center + arc.radius * (c * arc.x + sn * arc.y)
+                bend = 2.0 * np.sin(phi / 2) ** 2
+                out[mask] = arc.start + arc.radius * (sn * arc.y + bend * arc.n)
             elif order == 1:
-                out[mask] = -sn * arc.x + c * arc.y
+                out[mask] = c * arc.y + sn * arc.n
             else:
-                out[mask] = -(c * arc.x + sn * arc.y) / arc.radius
+                out[mask] = (c * arc.n - sn * arc.y) / arc.radius
         return out
 
     def speed_bounds(self) -> np.ndarray:
@@ -145,7 +148,7 @@ class BlendedPath:
                 rows.append(np.abs(data[1]))  # type: ignore[index]
             else:
                 arc: Arc = data  # type: ignore[assignment]
-                rows.append(np.hypot(arc.x, arc.y))
+                rows.append(np.hypot(arc.y, arc.n))
         return np.array(rows)
 
     def curvature_bounds(self) -> np.ndarray:
@@ -156,7 +159,7 @@ class BlendedPath:
                 rows.append(np.zeros(self.dof))
             else:
                 arc: Arc = data  # type: ignore[assignment]
-                rows.append(np.hypot(arc.x, arc.y) / arc.radius)
+                rows.append(np.hypot(arc.y, arc.n) / arc.radius)
         return np.array(rows)
 
     def piece_corners(self) -> np.ndarray:
@@ -184,11 +187,6 @@ def _arc(
     half = angle / 2
     reach = min(len_a / 2, len_b / 2, deviation / np.tan(half / 2))
     radius = reach / np.tan(half)
-    bis = y_b - y_a
-    bis /= np.linalg.norm(bis)
-    center = corner + bis * radius / np.cos(half)
-    start = corner - reach * y_a
-    x = (start - center) / radius
-    x -= (x @ y_a) * y_a  # exact orthogonality against rounding
-    x /= np.linalg.norm(x)
-    return Arc(k, center, float(radius), x, y_a.copy(), angle)
+    n = y_b - (y_a @ y_b) * y_a  # the part of the outgoing direction across the incoming one
+    n /= np.linalg.norm(n)
+    return Arc(k, corner - reach * y_a, float(radius), y_a.copy(), n, angle)
