@@ -36,7 +36,8 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from bench import mbm  # noqa: E402
-from bench.harness import ROOT, optional, server  # noqa: E402
+from bench.harness import ROOT, cpu_seconds, optional, server  # noqa: E402
+from core.trajectory import Trajectory  # noqa: E402
 from robots import registry  # noqa: E402
 from robots.collision import CollisionChecker  # noqa: E402
 from service import environment  # noqa: E402
@@ -56,6 +57,8 @@ class Outcome:
     certified: bool = False
     search_ms: float = np.nan
     wall_ms: float = np.nan
+    cpu_ms: float = np.nan
+    check_cpu_ms: float = np.nan
     length: float = np.nan
     depth_mm: float = 0.0
     note: str = ""
@@ -92,18 +95,20 @@ def length(qs: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(qs, axis=0), axis=1).sum())
 
 
-def ours(client: Any, url: str, case: Case, check: CollisionChecker) -> None:
+def ours(client: Any, live: Any, case: Case, check: CollisionChecker) -> None:
     body = mbm.request(case.problem, seed=0)
+    cpu = cpu_seconds(live.pid)
     started = time.perf_counter()
-    answer = client.post(f"{url}/v1/trajectories/collision_free?layout=columns", json=body)
+    answer = client.post(f"{live.url}/v1/trajectories/collision_free?layout=columns", json=body)
     wall = (time.perf_counter() - started) * 1e3
+    cpu = (cpu_seconds(live.pid) - cpu) * 1e3
     data = answer.json()
     if not case.valid:
         ok = answer.status_code == 422 and data.get("code") == "collision" and "at" in data
         case.invalid_answer = "422 collision" if ok else f"{answer.status_code} {data.get('code')}"
         return
     out = case.ours
-    out.wall_ms = wall
+    out.wall_ms, out.cpu_ms = wall, cpu
     if answer.status_code != 200:
         out.note = f"{answer.status_code} {data.get('code')}"
         return
@@ -112,6 +117,24 @@ def ours(client: Any, url: str, case: Case, check: CollisionChecker) -> None:
     out.search_ms = float(data["diagnostics"]["planner"]["plan_time_ms"])
     out.certified, out.depth_mm = recheck(check, qs)
     out.length = length(qs)
+    out.check_cpu_ms = usual_check_cpu(case.problem, data)
+
+
+def usual_check_cpu(problem: mbm.Problem, data: dict[str, Any]) -> float:
+    """CPU time [ms] of the service's usual continuous check (``service.environment.guard``) of
+    the answer, run here: the part of the request's cost that is not the planner's."""
+    robot = registry.resolve(mbm.robot())
+    traj = Trajectory(
+        np.asarray(data["time_from_start"], dtype=float),
+        np.asarray(data["positions"], dtype=float),
+        np.asarray(data["velocities"], dtype=float),
+        np.asarray(data["accelerations"], dtype=float),
+        tuple(data["joint_names"]),
+    )
+    env = Environment.model_validate(mbm.environment(problem))
+    started = time.process_time()
+    environment.guard(robot, env, traj, urdf=mbm.urdf())
+    return (time.process_time() - started) * 1e3
 
 
 def baseline(case: Case, check: CollisionChecker) -> None:
@@ -128,7 +151,7 @@ def baseline(case: Case, check: CollisionChecker) -> None:
         gdata.collisionRequests[k].security_margin = float(thr[name])
     manager = pin.BroadPhaseManager_NaiveCollisionManager(robot.model, gm, gdata)
     dof = robot.dof
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     space = ob.RealVectorStateSpace(dof)
     bounds = ob.RealVectorBounds(dof)
     for j in range(dof):
@@ -158,6 +181,7 @@ def baseline(case: Case, check: CollisionChecker) -> None:
         return
     setup.simplifySolution()
     out.wall_ms = (time.perf_counter() - started) * 1e3
+    out.cpu_ms = (time.process_time() - cpu) * 1e3
     path = setup.getSolutionPath()
     qs = np.array([path.getState(i)[0:dof] for i in range(path.getStateCount())], dtype=float)
     out.solved = True
@@ -175,7 +199,7 @@ def run_cases(per_scenario: int | None) -> list[Case]:
             ends = check.distances(np.array([problem.start, problem.goal])) - check.threshold
             start, goal = np.array(problem.start), np.array(problem.goal)
             case = Case(problem, bool((ends >= 0).all()), float(np.linalg.norm(goal - start)))
-            ours(client, live.url, case, check)
+            ours(client, live, case, check)
             if case.valid:
                 baseline(case, check)
             cases.append(case)
@@ -215,20 +239,25 @@ def rows(name: str, cases: list[Case]) -> list[str]:
     def line(label: str, outs: list[Outcome], ratio: str, extra: str) -> str:
         solved = [x for x in outs if x.solved]
         certified = sum(x.certified for x in solved)
+        planning = [x.cpu_ms - x.check_cpu_ms if np.isfinite(x.check_cpu_ms) else x.cpu_ms
+                    for x in outs]  # fmt: skip
         return (
             f"| {name} | {label} | {len(valid)}/{len(cases)} | {len(solved)} | {certified} | "
             f"{_stat([x.search_ms for x in outs], 50)} / {_stat([x.search_ms for x in outs], 95)} | "
             f"{_stat([x.wall_ms for x in outs], 50)} / {_stat([x.wall_ms for x in outs], 95)} | "
+            f"{_stat([x.cpu_ms for x in outs], 50)} | {_stat(planning, 50)} | "
             f"{_ratio([x.length / c.straight for x, c in zip(outs, valid, strict=True) if x.solved])} | "
             f"{ratio} | {extra} |"
         )
 
-    time_ratio = _ratio([c.ours.wall_ms / c.baseline.wall_ms for c in both])
+    wall = _ratio([c.ours.wall_ms / c.baseline.wall_ms for c in both])
+    cpu = _ratio([c.ours.cpu_ms / c.baseline.cpu_ms for c in both])
+    plan = _ratio([(c.ours.cpu_ms - c.ours.check_cpu_ms) / c.baseline.cpu_ms for c in both])
     length_ratio = _ratio([c.ours.length / c.baseline.length for c in both])
     worst = max((x.depth_mm for x in b if x.solved), default=0.0)
     return [
-        line("**ours**", o, f"{time_ratio}x time, {length_ratio}x length",
-             f"invalid answered 422 collision + at: {good}/{len(invalid)}"),
+        line("**ours**", o, f"wall {wall}x, CPU {cpu}x (without the usual check {plan}x); "
+             f"length {length_ratio}x", f"invalid answered 422 collision + at: {good}/{len(invalid)}"),
         line("OMPL+coal", b, "1.00x", f"deepest contact {worst:.1f} mm"),
     ]  # fmt: skip
 
@@ -236,9 +265,10 @@ def rows(name: str, cases: list[Case]) -> list[str]:
 def table(cases: list[Case]) -> list[str]:
     head = [
         "| scenario | planner | valid | solved | certified (re-checked) | search ms p50 / p95 | "
-        "request (ours) or solve+simplify (OMPL) ms p50 / p95 | length / straight (median) | "
-        "ours vs OMPL (median of per-problem ratios) | notes |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "wall ms p50 / p95: request (ours), solve + simplify (OMPL) | CPU ms p50 | "
+        "CPU ms p50 without the usual check | length / straight (median) | "
+        "ours vs OMPL (medians of per-problem ratios) | notes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     body = []
     for scenario in mbm.SCENARIOS:

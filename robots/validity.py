@@ -156,6 +156,11 @@ class GroupedClearance:
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
         return np.array([self._group_minima(q)[0] for q in qs]).reshape(len(qs), len(self._members))
 
+    def min_distances(self, qs: np.ndarray) -> np.ndarray:
+        """Smallest distance ``(N,)`` [m] over every pair at each row of ``qs`` (coal; the same
+        value as ``CollisionChecker.min_distances`` to coal's tolerance where no pair touches)."""
+        return self.distances(qs).min(axis=1, initial=np.inf)
+
     def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
         """The checker's continuous check (every pair, names of the real pairs)."""
         return self.checker.check_path(times, qs)

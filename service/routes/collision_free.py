@@ -1,8 +1,9 @@
 """POST /v1/trajectories/collision_free: a joint motion that plans around obstacles.
 
 Thin route: schema -> ``MotionTask`` and the robot's clearance (``service.convert.collision_free``)
--> ``core.motion.plan.plan_motion`` -> the usual continuous check (``service.environment.guard``)
--> response. Plain ``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
+-> ``core.motion.plan.plan_motion`` -> the usual continuous check of the returned points
+(``service.convert.collision_free.usual_check``: the request's checker, built once, and its
+``check_path``; start and goal were checked by the core before any search) -> response. Plain ``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ def collision_free_trajectory(
     urdf = environment.inline_urdf(body.robot)
     task = convert.motion_task(body, robot, deadline, settings.max_points, settings.time_budget_s)
     check = environment.checker(robot, body.environment, urdf)
-    clearance = Unobstructed(robot.dof) if check is None else GroupedClearance(check)
-    result = plan_motion(task, clearance)
-    checked = environment.guard(robot, body.environment, result.trajectory, urdf=urdf)
-    return convert.response(result, checked, started, time_format)
+    grouped = None if check is None else GroupedClearance(check)
+    result = plan_motion(task, grouped or Unobstructed(robot.dof))
+    checked = convert.usual_check(check, grouped, result.trajectory)
+    warnings = environment.unchecked_warnings(robot, body.environment, urdf)
+    return convert.response(result, checked, warnings, started, time_format)

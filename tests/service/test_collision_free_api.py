@@ -77,6 +77,10 @@ def assert_certified(check: CollisionChecker, body: dict[str, Any]) -> None:
     assert result.contact is None
     assert body["diagnostics"]["certified"] is True
     assert body["diagnostics"]["min_clearance"] == pytest.approx(result.min_clearance, abs=1e-9)
+    profile = body["diagnostics"]["clearance_profile"]
+    rows = np.searchsorted(times, profile["time_from_start"])
+    np.testing.assert_allclose(profile["value"], check.min_distances(qs[rows]), atol=1e-5)
+    assert min(profile["value"]) >= result.min_clearance - 1e-5
 
 
 def assert_exact_derivatives(body: dict[str, Any], limits: dict[str, list[float]]) -> None:
