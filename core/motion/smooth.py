@@ -33,9 +33,9 @@ from core.clearance import linearized_clearance_rows, stacked_rows
 from core.motion.certify import Certifier
 from core.motion.shorten import path_length
 
-KNOT_SPACING = 0.35
+KNOT_SPACING = 0.5
 """[rad] Longest segment of the resampled path."""
-MAX_KNOTS = 20
+MAX_KNOTS = 16
 """Most knots of the smoothed path (the spacing grows for long paths)."""
 ACCELERATION_WEIGHT = 0.2
 """Weight of the squared second differences against the squared first differences."""
@@ -43,7 +43,7 @@ TRUST_REGION = 0.3
 """[rad] First trust region (per joint, about the current knots)."""
 MIN_TRUST = 0.01
 """[rad] Smoothing stops when the trust region shrinks below this."""
-MAX_ROUNDS = 3
+MAX_ROUNDS = 2
 """Most QP rounds."""
 MIN_GAIN = 1e-3
 """Relative shortening below which the rounds stop."""
