@@ -282,3 +282,18 @@ def test_jerk_limited_keeps_the_jerk_limits(client) -> None:
                                           "goal": {"positions": UR5_HOME}, "limits": None,
                                           "environment": None}), 422, "validation")  # fmt: skip
     assert err["errors"][0]["loc"][:3] == ["body", "limits", "jerk"]
+
+
+def test_nothing_to_collide_with_is_the_direct_segment(client) -> None:
+    goal = [0.5, -1.2, 1.8, -2.2, -1.3, 0.4]
+    body = {"robot": "ur5", "start": {"positions": UR5_HOME}, "goal": {"positions": goal},
+            "environment": {"self_collision": False}}  # fmt: skip
+    data = client.post(URL, json=body).json()
+    assert data["diagnostics"]["planner"]["name"] == "direct"
+    assert "min_clearance" not in data["diagnostics"] and data["diagnostics"]["certified"] is True
+    same = client.post(URL, json={**body, "goal": {"positions": UR5_HOME}}).json()
+    assert (
+        same["diagnostics"]["path_length"] == 0.0
+        and same["diagnostics"]["path_length_ratio"] == 1.0
+    )
+    assert all(p["positions"] == UR5_HOME for p in same["points"])
