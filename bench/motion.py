@@ -40,7 +40,9 @@ from bench.harness import ROOT, cpu_seconds, optional, server  # noqa: E402
 from core.trajectory import Trajectory  # noqa: E402
 from robots import registry  # noqa: E402
 from robots.collision import CollisionChecker  # noqa: E402
+from robots.validity import GroupedClearance  # noqa: E402
 from service import environment  # noqa: E402
+from service.convert.collision_free import usual_check  # noqa: E402
 from service.schemas.environment import Environment  # noqa: E402
 
 RESULTS = ROOT / "bench" / "RESULTS.md"
@@ -117,13 +119,13 @@ def ours(client: Any, live: Any, case: Case, check: CollisionChecker) -> None:
     out.search_ms = float(data["diagnostics"]["planner"]["plan_time_ms"])
     out.certified, out.depth_mm = recheck(check, qs)
     out.length = length(qs)
-    out.check_cpu_ms = usual_check_cpu(case.problem, data)
+    out.check_cpu_ms = usual_check_cpu(check, data)
 
 
-def usual_check_cpu(problem: mbm.Problem, data: dict[str, Any]) -> float:
-    """CPU time [ms] of the service's usual continuous check (``service.environment.guard``) of
-    the answer, run here: the part of the request's cost that is not the planner's."""
-    robot = registry.resolve(mbm.robot())
+def usual_check_cpu(check: CollisionChecker, data: dict[str, Any]) -> float:
+    """CPU time [ms] of the usual continuous check of the answer as the service runs it
+    (``service.convert.collision_free.usual_check``), run again here: the part of the request's
+    cost that is not the planner's."""
     traj = Trajectory(
         np.asarray(data["time_from_start"], dtype=float),
         np.asarray(data["positions"], dtype=float),
@@ -131,9 +133,8 @@ def usual_check_cpu(problem: mbm.Problem, data: dict[str, Any]) -> float:
         np.asarray(data["accelerations"], dtype=float),
         tuple(data["joint_names"]),
     )
-    env = Environment.model_validate(mbm.environment(problem))
     started = time.process_time()
-    environment.guard(robot, env, traj, urdf=mbm.urdf())
+    usual_check(check, GroupedClearance(check), traj)
     return (time.process_time() - started) * 1e3
 
 
