@@ -129,7 +129,7 @@ def test_mbm_problems_are_planned_around_the_obstacles(client, name: str) -> Non
 @pytest.mark.parametrize("name", [f"{s}/2" for s in mbm.SCENARIOS])
 def test_every_scenario(client, name: str) -> None:
     p = PROBLEMS[name]
-    body = mbm.request(p, timing="jerk_limited", seed=7)
+    body = mbm.request(p, timing="jerk_limited", seed=7, limits={"jerk": [5000.0] * 7})
     answer = client.post(URL, json=body)
     if answer.status_code == 422:  # an invalid MBM problem: start or goal in collision
         assert answer.json()["code"] == "collision" and answer.json()["at"] in ("start", "goal")
