@@ -8,6 +8,7 @@ for the same request and seed, in a fresh process too."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import subprocess
 import sys
@@ -59,7 +60,7 @@ def coal_sweep_margin(check: CollisionChecker, qs: np.ndarray) -> float:
                 level = thr[(a, b)]
         groups.append((gd, level))
     t = np.linspace(0.0, 1.0, SWEEP + 2)[:-1, None]
-    dense = np.vstack([a + t * (b - a) for a, b in zip(qs[:-1], qs[1:], strict=True)] + [qs[-1:]])
+    dense = np.vstack([a + t * (b - a) for a, b in itertools.pairwise(qs)] + [qs[-1:]])
     low = np.inf
     for q in dense:
         for gd, level in groups:
