@@ -166,3 +166,14 @@ class Collision(PlanningError):
 
 
 ALL_ERRORS = (*ALL_ERRORS, Collision)
+
+
+class NoPathFound(PlanningError):
+    """A collision-free motion search found no path within its time limit; ``extra`` carries the
+    planner's figures (``planner``: name, seed, iterations, states, plan_time_ms)."""
+
+    code = "no_path_found"
+    title = "No path found"
+
+
+ALL_ERRORS = (*ALL_ERRORS, NoPathFound)
