@@ -14,8 +14,8 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.measure import DeviationReport
-from core.clearance import Clearance
-from core.kinematics import Kinematics
+from core.collisions import ClearanceReport
+from core.kinematics import Clearance, Kinematics
 from core.path import Path, build_path
 from core.trajectory import Trajectory
 
@@ -68,6 +68,10 @@ class CartesianTask:
         max_angular_jerk: Tool angular jerk limit [rad/s^3] of the s-curve (None: its default).
         clearance: The environment's distances (obstacles, self-collision), for the methods that
             avoid collisions (``bounded_deviation_nlp``, ``resolved_rate_dls``); None: no avoidance.
+        collision_check: The collision object every answer is checked with (``core.collisions``:
+            the start before planning, then the returned motion, continuously); the same object as
+            ``clearance`` when the request has an environment, else the robot's self pairs only.
+            None: nothing to check.
     """
 
     robot: Kinematics
@@ -91,6 +95,7 @@ class CartesianTask:
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
     clearance: Clearance | None = None
+    collision_check: Clearance | None = None
 
     def line(self) -> Path:
         """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);
@@ -143,6 +148,8 @@ class CartesianResult:
             (K, dof); None for the others.
         diagnostics: Method-specific figures (JSON-serializable).
         failure: The error that ended a partial plan.
+        clearance: How close the returned motion comes to contact (``core.collisions``), None when
+            nothing is checked.
     """
 
     trajectory: Trajectory
@@ -154,3 +161,4 @@ class CartesianResult:
     knots: dict[str, np.ndarray] | None = None
     diagnostics: dict[str, Any] = field(default_factory=dict)
     failure: Exception | None = None
+    clearance: ClearanceReport | None = None

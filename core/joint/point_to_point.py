@@ -13,9 +13,11 @@ from typing import NamedTuple
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
+from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import InputError
 from core.joint.motion import PointToPoint, State
 from core.joint.profiles import PROFILES
+from core.kinematics import Clearance
 from core.limits import JointLimits, check_boundary_rates, check_positions, check_rates
 from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names, sample_times
 
@@ -27,11 +29,13 @@ NO_LIMITS = JointLimits()
 
 class JointPlan(NamedTuple):
     """A planned move: the sampled ``trajectory`` (with the profile's exact peaks), the
-    ``profile`` (sample it anywhere in ``[0, T]``) and human-readable ``warnings``."""
+    ``profile`` (sample it anywhere in ``[0, T]``), human-readable ``warnings`` and the collision
+    check's ``clearance`` (None: nothing checked)."""
 
     trajectory: Trajectory
     profile: Profile
     warnings: tuple[str, ...]
+    clearance: ClearanceReport | None = None
 
 
 def plan_joint(
@@ -45,6 +49,7 @@ def plan_joint(
     max_points: int = MAX_POINTS,
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
+    collision_check: Clearance | None = None,
 ) -> JointPlan:
     """Plan and sample a point-to-point move: the one core call of the joint-space route.
 
@@ -54,7 +59,9 @@ def plan_joint(
     (``JointLimit``); boundary rates must be within the rate limits (``JointRateLimit``) and
     honoured by the profile (``ProfileKind.boundary_rates``; ``InputError`` naming the field
     otherwise). Sampling as ``sample_times``. ``deadline`` is checked after the timing and after
-    the sampling (``TimeBudgetExceeded``).
+    the sampling (``TimeBudgetExceeded``). With ``collision_check`` the start and goal are
+    checked before planning and the sampled motion continuously after it (``core.collisions``:
+    ``Collision`` at the first contact).
     """
     limits = limits or NO_LIMITS
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
@@ -65,6 +72,8 @@ def plan_joint(
         raise InputError(f"{dof} positions for {len(names)} joints", field=("start", "positions"))
     limits.validate(dof)
     _check_boundaries(kind, motion, limits, names)
+    ends = (End("start", motion.start.positions, 0.0), End("goal", motion.goal.positions))
+    check_ends(collision_check, ends)
     profile = spec.timed(motion, limits, duration, names)
     deadline.check("joint profile timing")
     times = sample_times(profile.duration, sample_period, samples, max_points)
@@ -73,7 +82,8 @@ def plan_joint(
     if limits.velocity is not None or limits.acceleration is not None or limits.jerk is not None:
         check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
     check_positions(trajectory.positions, limits, names, times=times)
-    return JointPlan(trajectory, profile, spec.warnings(motion))
+    report = checked(trajectory, collision_check)
+    return JointPlan(trajectory, profile, spec.warnings(motion), report)
 
 
 def _check_boundaries(kind: str, m: PointToPoint, limits: JointLimits, names: tuple) -> None:

@@ -20,8 +20,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from core.budget import NO_DEADLINE, Deadline
+from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
 from core.joint import durations
+from core.kinematics import Clearance
 from core.limits import (
     JointLimits,
     check_boundary_rates,
@@ -149,12 +151,13 @@ class SplineProfile:
 
 class SplinePlan(NamedTuple):
     """A planned spline: the sampled ``trajectory``, the ``profile``, its ``knot_times`` [s]
-    ``(n + 1,)`` and human-readable ``warnings``."""
+    ``(n + 1,)``, human-readable ``warnings`` and the collision check's ``clearance``."""
 
     trajectory: Trajectory
     profile: SplineProfile
     knot_times: np.ndarray
     warnings: tuple[str, ...]
+    clearance: ClearanceReport | None = None
 
 
 ROUNDING_MARGIN = 1e-12
@@ -259,13 +262,16 @@ def plan_spline(
     max_points: int = MAX_POINTS,
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
+    collision_check: Clearance | None = None,
 ) -> SplinePlan:
     """Plan and sample a spline through ``waypoints`` ``(n + 1, dof)``: the one core call of the
     spline route.
 
     Without ``times``, knot times from ``allocate_times``; with them, a plan over known limits is
     ``JointRateLimit``. Waypoints and every sample must stay within ``limits.position``
-    (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise).
+    (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise). With
+    ``collision_check``, the first and last waypoints are checked before planning and the sampled
+    motion continuously after it (``core.collisions``).
     """
     limits = limits or JointLimits()
     q = np.asarray(waypoints, dtype=float)
@@ -289,6 +295,7 @@ def plan_spline(
     vmax = limits.maxima(dof)[0]
     check_boundary_rates(v0, vmax, ("start_velocity",), names)
     check_boundary_rates(v1, vmax, ("goal_velocity",), names)
+    check_ends(collision_check, (End("start", q[0], 0.0), End("goal", q[-1])))
     if times is None:
         knots = allocate_times(q, boundary, limits, v0, v1, deadline)
         profile = SplineProfile(knots, q, boundary, v0, v1)
@@ -313,7 +320,8 @@ def plan_spline(
         check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
     check_positions(trajectory.positions, limits, names, times=trajectory.times)
     warnings = () if not np.any(trajectory.velocities[-1]) else (durations.NONZERO_END_VELOCITY,)
-    return SplinePlan(trajectory, profile, knots, warnings)
+    report = checked(trajectory, collision_check)
+    return SplinePlan(trajectory, profile, knots, warnings, report)
 
 
 def _knot_times(times: object, count: int) -> np.ndarray:

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from core.collisions import ClearanceReport
 from core.errors import PlanningError
 from core.program.build import Geometry
 from core.program.segments import ProgramTask
@@ -58,9 +59,8 @@ class ProgramResult:
         fraction: Share of the segments planned (1.0 unless partial).
         failure: What stopped a partial plan, else None.
         diagnostics: Program-wide facts (max deviations, stretch, chunk count).
-        stop_at: ``stop_at(t, failure)``: the program cut at time ``t`` [s] and brought to rest
-            there along its own path (``core.program.plan``), a partial plan failing with
-            ``failure``; None when nothing before ``t`` moves. None: not offered.
+        clearance: How close the motion comes to contact (``core.collisions``), None when nothing
+            is checked.
     """
 
     trajectory: Trajectory
@@ -69,9 +69,7 @@ class ProgramResult:
     fraction: float
     failure: PlanningError | None
     diagnostics: dict[str, Any]
-    stop_at: Callable[[float, PlanningError], ProgramResult | None] | None = field(
-        default=None, repr=False, compare=False
-    )
+    clearance: ClearanceReport | None = None
 
 
 def _dense(times: np.ndarray, t0: float, t1: float) -> np.ndarray:

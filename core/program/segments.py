@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.kinematics import Kinematics
+from core.kinematics import Clearance, Kinematics
 from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
 
 SegmentType = Literal["ptp", "lin", "circ"]
@@ -114,6 +114,9 @@ class ProgramTask:
             boundaries are added to them), or None.
         allow_partial: Return the program up to a failing segment instead of failing.
         deadline: Wall-time budget.
+        collision_check: The collision object the program is checked with (``core.collisions``:
+            the start and every goal given as joints before planning, then the whole motion
+            continuously), None: nothing to check.
     """
 
     robot: Kinematics
@@ -123,3 +126,4 @@ class ProgramTask:
     samples: int | None = None
     allow_partial: bool = False
     deadline: Deadline = NO_DEADLINE
+    collision_check: Clearance | None = None

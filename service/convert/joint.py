@@ -23,6 +23,7 @@ from core.errors import InputError
 from core.joint.motion import PointToPoint
 from core.limits import JointLimits
 from core.trajectory import Trajectory
+from robots.model import Robot
 from service.convert.robot import robot_and_names
 from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
 from service.schemas.common import Limits
@@ -35,6 +36,7 @@ class JointInputs(NamedTuple):
     motion: PointToPoint
     limits: JointLimits
     joint_names: tuple[str, ...]
+    robot: Robot | None
 
 
 class SplineInputs(NamedTuple):
@@ -46,6 +48,7 @@ class SplineInputs(NamedTuple):
     goal_velocity: np.ndarray | None
     limits: JointLimits
     joint_names: tuple[str, ...]
+    robot: Robot | None
 
 
 def joint_limits(limits: Limits | JointLimitsIn | None, robot: Any) -> JointLimits:
@@ -78,7 +81,7 @@ def joint_inputs(request: JointTrajectoryRequest) -> JointInputs:
         start.accelerations,
         goal.accelerations,
     )
-    return JointInputs(motion, joint_limits(request.limits, robot), names)
+    return JointInputs(motion, joint_limits(request.limits, robot), names, robot)
 
 
 def spline_inputs(request: SplineRequest) -> SplineInputs:
@@ -101,6 +104,7 @@ def spline_inputs(request: SplineRequest) -> SplineInputs:
         array(request.goal_velocity),
         joint_limits(request.limits, robot),
         names,
+        robot,
     )
 
 

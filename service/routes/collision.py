@@ -17,7 +17,7 @@ from starlette.responses import Response
 from core.errors import InputError
 from robots import registry
 from robots.collision import robot_setup
-from service import environment
+from service.convert.environment import collision_check, inline_urdf
 from service.encoding import json_response
 from service.schemas.common import PROBLEM_RESPONSES, JointPositions, RobotRef, StrictModel
 from service.schemas.environment import Environment
@@ -54,7 +54,7 @@ def _distance(robot_ref: Any, body: DistanceRequest) -> Response:
     q = np.asarray(body.positions, dtype=float)
     if q.shape != (robot.dof,):
         raise InputError(f"positions needs {robot.dof} values", field=("positions",))
-    check = environment.checker(robot, body.environment, environment.inline_urdf(robot_ref))
+    check = collision_check(robot, body.environment, inline_urdf(robot_ref))
     rows = [] if check is None else check.closest_pairs(q, MAX_PAIRS)
     pairs = [
         {"links": list(n), "distance": d, "points": [p1.tolist(), p2.tolist()]}
@@ -86,7 +86,7 @@ def collision_description(robot_ref: Any) -> dict[str, Any]:
     """``collision_geometry`` and ``allowed_self_collisions`` of a robot, for its GET description
     (the robots route belongs to another team: its owner adds these two keys)."""
     robot = registry.resolve(robot_ref)
-    geometry, allowed = robot_setup(robot, environment.inline_urdf(robot_ref))
+    geometry, allowed = robot_setup(robot, inline_urdf(robot_ref))
     capsules = [
         {
             "link": link,

@@ -14,7 +14,8 @@ from robots import ik as robot_ik
 from robots import registry
 from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
-from service import deps, environment
+from service import deps
+from service.convert.environment import inline_urdf
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
@@ -124,7 +125,7 @@ def _detail(robot: Robot, urdf: str | None = None) -> RobotDetail:
     summary="The description of any robot, inline URDF models included",
 )
 def describe_robot(body: DescribeRequest) -> RobotDetail:
-    return _detail(registry.resolve(body.robot), environment.inline_urdf(body.robot))
+    return _detail(registry.resolve(body.robot), inline_urdf(body.robot))
 
 
 @router.get(

@@ -16,8 +16,9 @@ from starlette.responses import Response
 from core.budget import Deadline
 from core.joint.point_to_point import plan_joint
 from core.joint.splines import plan_spline
-from service import deps, dispatch, environment
+from service import deps, dispatch
 from service.convert import joint as convert
+from service.convert.environment import clearance_diagnostics, joint_request_check
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
     TimeFormat,
@@ -45,7 +46,8 @@ async def joint_trajectory(
     started = time.perf_counter()
 
     def respond() -> Response:
-        motion, limits, names = convert.joint_inputs(body)
+        motion, limits, names, robot = convert.joint_inputs(body)
+        check, unchecked = joint_request_check(robot, body.robot, body.environment)
         plan = plan_joint(
             body.profile,
             motion,
@@ -56,15 +58,15 @@ async def joint_trajectory(
             max_points=request.app.state.settings.max_points,
             joint_names=names,
             deadline=deadline,
+            collision_check=check,
         )
-        checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
-            checked.trajectory,
+            plan.trajectory,
             body.profile,
-            (*plan.warnings, *checked.warnings),
+            (*plan.warnings, *unchecked),
             started,
             time_format,
-            **checked.diagnostics,
+            **clearance_diagnostics(plan.clearance, unchecked),
         )
 
     return await dispatch.run_plan(
@@ -87,6 +89,7 @@ async def spline_trajectory(
 
     def respond() -> Response:
         inputs = convert.spline_inputs(body)
+        check, unchecked = joint_request_check(inputs.robot, body.robot, body.environment)
         settings = request.app.state.settings
         plan = plan_spline(
             inputs.waypoints,
@@ -100,17 +103,17 @@ async def spline_trajectory(
             max_points=settings.max_points,
             joint_names=inputs.joint_names,
             deadline=deadline,
+            collision_check=check,
         )
-        checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
-            checked.trajectory,
+            plan.trajectory,
             "spline",
-            (*plan.warnings, *checked.warnings),
+            (*plan.warnings, *unchecked),
             started,
             time_format,
             boundary=body.boundary,
             knot_times=plan.knot_times,
-            **checked.diagnostics,
+            **clearance_diagnostics(plan.clearance, unchecked),
         )
 
     return await dispatch.run_plan(
