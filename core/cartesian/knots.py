@@ -31,7 +31,6 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import reference_at, solve_on_line
-from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.knot_path import KnotPath, Knots
 from core.cartesian.measure import DEFAULT_CHECKS, dense_times, interval_excess, strict_deviation
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -40,6 +39,7 @@ from core.errors import (
     Infeasible,
 )
 from core.kinematics import Kinematics, jacobians, task_rows
+from core.limits import inside, over_speed
 from core.path.base import PathDeviation
 from core.path.line import StraightLine
 from core.trajectory import Trajectory

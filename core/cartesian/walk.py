@@ -37,7 +37,6 @@ from core.cartesian.ik_on_path import (
     residual,
     solve_ik,
 )
-from core.cartesian.joint_limits import inside, worst_joint
 from core.cartesian.path_rates import PathRates, path_rates
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
@@ -49,6 +48,7 @@ from core.errors import (
     Unreachable,
 )
 from core.kinematics import task_rows
+from core.limits import inside, worst_joint
 from core.path.line import StraightLine
 
 SINGULAR_VALUE_THRESHOLD = 1e-3
@@ -165,10 +165,11 @@ class Walker:
             return False
         if residual <= _EXACT:
             return True
-        sigma = path_rates(self.robot, self.line, q[None], second_order=False).sigma[0]
+        # sigma does not depend on s: skip the closest-point search
+        sigma = path_rates(self.robot, self.line, q[None], False, s=np.zeros(1)).sigma[0]
         return bool(sigma >= SINGULAR_VALUE_THRESHOLD)
 
-    def on_branch(self, q: np.ndarray, seed: Seed) -> bool:
+    def on_branch(self, q: np.ndarray, seed: Seed, s: float | None = None) -> bool:
         """Whether ``q`` continues the branch from ``seed``: within ``STRICT_BRANCH`` of the
         Jacobian's prediction (plus its slack); or, for a step of at most 2 ``MIN_STEP``,
         within what the larger of the rates at both ends allows (the mean-value bound, which holds
@@ -178,7 +179,8 @@ class Walker:
             return True
         if abs(seed.h) > 2.0 * MIN_STEP:
             return False
-        rates = path_rates(self.robot, self.line, q[None], second_order=False)
+        at = None if s is None else np.array([s])
+        rates = path_rates(self.robot, self.line, q[None], second_order=False, s=at)
         ratio, slack = STRICT_BRANCH
         bound = (1.0 + ratio) * np.maximum(np.abs(step), np.abs(rates.dq_ds[0] * seed.h))
         return bool(np.all(np.abs(q - seed.q) <= bound + slack))
@@ -197,7 +199,7 @@ class Walker:
                 if not self.reached(q, ok, res):
                     continue
                 q = self.unwrap(q, pred, T)
-                if self.on_branch(q, seed):
+                if self.on_branch(q, seed, s):
                     if not self.inside(q):
                         j = worst_joint(q, self.robot.position_limits)
                         return JointLimit(
@@ -245,10 +247,10 @@ class Walker:
         if isinstance(found, PlanningError):
             return found
         q = self.unwrap(found, pred, T)
-        if not self.on_branch(q, seed):
+        if not self.on_branch(q, seed, s):
             # at a singular point (the workspace's edge) the rates cannot predict the step: the
             # point is taken, and its check reports the singularity (then the edge, exactly)
-            sigma = path_rates(self.robot, self.line, q[None], second_order=False).sigma[0]
+            sigma = path_rates(self.robot, self.line, q[None], False, s=np.zeros(1)).sigma[0]
             if sigma >= SINGULAR_VALUE_THRESHOLD:
                 return BranchFlip(
                     f"the solution in the start's configuration ({self.label}) at s={s:.4f} is "
@@ -321,8 +323,8 @@ class Walker:
         )
 
     def check_point(self, s: float, q: np.ndarray) -> PathRates | PlanningError:
-        """Rates at ``q`` and the Type II checks."""
-        rates = path_rates(self.robot, self.line, q[None], second_order=False)
+        """Rates at ``q`` (the path's point ``s``) and the Type II checks."""
+        rates = path_rates(self.robot, self.line, q[None], second_order=False, s=np.array([s]))
         sigma = float(rates.sigma[0])
         if sigma < SINGULAR_VALUE_THRESHOLD:
             return Singularity(
@@ -394,5 +396,5 @@ def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None =
         if len(off):
             failure = label_change(float(s_arr[off[0]]), w.label)
             positions, s_arr = positions[: off[0]], s_arr[: off[0]]
-    rates = path_rates(task.robot, line, positions, deadline=task.deadline)
+    rates = path_rates(task.robot, line, positions, deadline=task.deadline, s=s_arr)
     return LineWalk(s_arr, positions, rates, failure, w.ik_calls)

@@ -33,7 +33,7 @@ def batch_walk(task: CartesianTask, line: StraightLine) -> LineWalk | None:
     if not np.all(path.within_limits):
         return None
     positions = np.vstack([q_start, path.positions])
-    rates = path_rates(robot, line, positions, deadline=task.deadline)
+    rates = path_rates(robot, line, positions, deadline=task.deadline, s=grid)
     if np.any(rates.sigma < SINGULAR_VALUE_THRESHOLD):
         return None
     speed = nominal_path_speed(task, line)

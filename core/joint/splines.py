@@ -148,6 +148,10 @@ class SplineProfile:
         vel, acc = self.segment_peaks()
         return Peaks(vel.max(axis=0), acc.max(axis=0), np.abs(6.0 * self.spline.c[0]).max(axis=0))
 
+    def switch_times(self) -> np.ndarray:
+        """The inner knot times [s], where the jerk steps."""
+        return self.knot_times[1:-1].copy()
+
 
 class SplinePlan(NamedTuple):
     """A planned spline: the sampled ``trajectory``, the ``profile``, its ``knot_times`` [s]

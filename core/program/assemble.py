@@ -1,7 +1,10 @@
 """A timed program sampled and reported (``assemble``), or cut and brought to rest (``rest_at``).
 
 The returned points are a regular grid (``sample_period`` or ``samples``) plus every segment
-boundary and blend window boundary, so a controller reaches each goal exactly. LIN/CIRC deviation
+boundary and blend window boundary, so a controller reaches each goal exactly, and every time a
+chunk's timing switches (a step in acceleration or jerk: a trapezoid's ramp ends, an S-curve's
+phases), so the motion between two returned points is smooth and the returned velocities are the
+integral of the returned accelerations. LIN/CIRC deviation
 from their line/arc is measured outside the blend windows along the returned trajectory
 (``core.program.report``). The trajectory's peaks (``peak_jerk`` included) are those of the
 analytic q(t) of every chunk.
@@ -20,42 +23,101 @@ import numpy as np
 from core.errors import PlanningError, TooLarge
 from core.program.chunk import ChunkTiming
 from core.program.pieces import Piece, ProfileTiming, time_pieces
-from core.program.report import ProgramResult, report
-from core.program.timed import Timed, TimedProgram, placed
-from core.trajectory import MAX_POINTS, Peaks, Trajectory, sample_times
+from core.program.report import ProgramResult, SegmentResult, report
+from core.program.returned import ChunkMotion, chunk_motion
+from core.program.timed import Timed, TimedProgram, placed, restretched
+from core.timing.path_profile import stretch_for
+from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS, Peaks, Trajectory, sample_times
 
 MIN_GAP = 1e-6
 """Regular sample times closer than this [s] to a boundary time are dropped (the boundary stays)."""
+NEAR_SHARE = 0.25
+"""Regular points closer than this share of their spacing to a boundary or switch are dropped."""
+SETTLE_ROUNDS = 4
+"""Most rounds of slowing chunks whose returned motion overshoots a limit (``settled``)."""
 
 
-def assemble(timed: TimedProgram) -> ProgramResult:
-    """Sample the timed chunks and report them (``core.program.report``)."""
+def returned_times(timed: TimedProgram) -> np.ndarray:
+    """The program's returned times [s]: the regular grid, every segment and blend boundary and
+    every switch of a chunk's timing (``TooLarge`` over ``MAX_POINTS``)."""
     task, timings = timed.task, timed.timings
-    duration = timed.duration
-    regular = sample_times(duration, task.sample_period, task.samples, MAX_POINTS)
-    marks = np.unique([t for _, _, ch in timings for p in ch for t in p.times])
-    near = np.min(np.abs(regular[:, None] - marks[None, :]), axis=1) < MIN_GAP
+    regular = sample_times(timed.duration, task.sample_period, task.samples, MAX_POINTS)
+    bounds = [t for _, _, ch in timings for p in ch for t in p.times]
+    switches = [offset + timing.switch_times() for offset, timing, _ in timings]
+    marks = np.unique(np.concatenate([bounds, *switches]))
+    # a regular point much closer to a mark than the spacing goes (the mark stays): an interval
+    # of microseconds between returned points makes the cubic through them ill-conditioned
+    spacing = float(np.median(np.diff(regular))) if len(regular) > 1 else timed.duration
+    gap = max(MIN_GAP, NEAR_SHARE * spacing)
+    near = np.min(np.abs(regular[:, None] - marks[None, :]), axis=1) < gap
     times = np.union1d(regular[~near], marks)
-    if len(times) > MAX_POINTS:
+    if len(times) + 2 * len(timings) > MAX_POINTS:
         raise TooLarge(
             f"the program needs {len(times)} points (the regular ones and {len(marks)} segment "
             f"and blend boundaries), over the limit of {MAX_POINTS}",
             field=("samples",) if task.samples is not None else ("sample_period",),
         )
-    q, qd, qdd = sample(timings, times)
-    # Peaks of the analytic q(t) of every chunk (exact for joint profiles, dense for the rest),
-    # never below the returned samples'.
-    peaks = [timing.peaks() for _, timing, _ in timings]
-    combined = Peaks(
-        np.maximum(np.max([p.velocity for p in peaks], axis=0), np.abs(qd).max(axis=0)),
-        np.maximum(np.max([p.acceleration for p in peaks], axis=0), np.abs(qdd).max(axis=0)),
-        np.max([p.jerk for p in peaks], axis=0),
+    return times
+
+
+def motions(timed: TimedProgram) -> list[ChunkMotion]:
+    """The returned motion of every chunk (``core.program.returned``)."""
+    times = returned_times(timed)
+    out = []
+    for offset, timing, _ in timed.timings:
+        end = offset + timing.duration
+        inner = times[(times > offset + MIN_GAP) & (times < end - MIN_GAP)]
+        out.append(chunk_motion(offset, timing, np.concatenate([[offset], inner, [end]])))
+    return out
+
+
+def settled(timed: TimedProgram) -> TimedProgram:
+    """``timed`` with every chunk whose returned motion (the cubic through its returned points)
+    overshoots a joint velocity or acceleration limit run that much slower (velocity by 1/k,
+    acceleration by 1/k^2), until none does (``SETTLE_ROUNDS`` at most)."""
+    robot = timed.task.robot
+    v_max = np.asarray(robot.velocity_limits, dtype=float)
+    a_max = np.asarray(robot.acceleration_limits, dtype=float)
+    for _ in range(SETTLE_ROUNDS):
+        timed.task.deadline.check("settling the program's returned motion")
+        factors = {}
+        for k, motion in enumerate(motions(timed)):
+            r_v, r_a = motion.ratios(v_max, a_max, timed.timings[k][2])
+            f = stretch_for((r_v, r_a))
+            if f > 1.0:
+                factors[k] = f
+        if not factors:
+            break
+        timed = restretched(timed, factors)
+    return timed
+
+
+def assemble(timed: TimedProgram) -> ProgramResult:
+    """Sample the timed chunks and report them (``core.program.report``); a program that moves no
+    joint is at rest (``at_rest``)."""
+    task, timings = timed.task, timed.timings
+    if not timings:
+        return at_rest(timed)
+    chunks = motions(timed)
+    keep = [np.ones(len(m.times), dtype=bool) for m in chunks]
+    for k in range(1, len(chunks)):  # a chunk starts where (and when) the last one ended at rest
+        keep[k][0] = False
+    times, q, qd, qdd = (
+        np.concatenate([getattr(m, name)[kept] for m, kept in zip(chunks, keep, strict=True)])
+        for name in ("times", "q", "qd", "qdd")
     )
-    traj = Trajectory(times, q, qd, qdd, task.robot.joint_names, peaks=combined)
+    peaks = Peaks(*(np.max([getattr(m.peaks, f) for m in chunks], axis=0) for f in Peaks._fields))
+    traj = Trajectory(times, q, qd, qdd, task.robot.joint_names, peaks=peaks)
     spans = {(p.owner, p.blend): p.times for _, _, ch in timings for p in ch}
+    starts = np.array([m.offset for m in chunks])
 
     def positions(t: np.ndarray) -> np.ndarray:
-        return sample(timings, t)[0]
+        which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(chunks) - 1)
+        out = np.empty((len(t), q.shape[1]))
+        for k, m in enumerate(chunks):
+            sel = which == k
+            out[sel] = m.positions(t[sel])
+        return out
 
     result = report(task, timed.lay, timed.geo, spans, traj, positions)
     planned = {sp.index for sp in timed.geo.segments}
@@ -70,11 +132,38 @@ def assemble(timed: TimedProgram) -> ProgramResult:
     for sr in result.segments:  # how each segment was timed
         if sr.index in timed.timed_by:
             sr.diagnostics["timing"] = timed.timed_by[sr.index]
-    # How much the dense limit check stretched the time-optimal timing (1.0: not at all), and
-    # how many rest-to-rest stretches the program has (stops + 1).
+    # How much the dense limit checks stretched the timing (1.0: not at all), and how many
+    # rest-to-rest stretches the program has (stops + 1).
     result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)
     result.diagnostics["stops"] = len(timings) - 1
     return result
+
+
+STILL = (
+    "every segment has zero length (no joint moves): the answer is the start, at rest for one "
+    "sample period"
+)
+"""Warning of a program that does not move the arm (as Pilz answers a LIN to its own start)."""
+
+
+def at_rest(timed: TimedProgram) -> ProgramResult:
+    """The answer of a program that moves no joint: the start at rest for one sample period
+    (``sample_period``, default 0.01 s; ``samples`` points over it), every segment skipped."""
+    task = timed.task
+    duration = task.sample_period or DEFAULT_SAMPLE_PERIOD
+    times = sample_times(duration, task.sample_period, task.samples, MAX_POINTS)
+    q = np.tile(np.asarray(task.q_start, dtype=float), (len(times), 1))
+    still = np.zeros_like(q)
+    dof = q.shape[1]
+    peaks = Peaks(np.zeros(dof), np.zeros(dof), np.zeros(dof))
+    traj = Trajectory(times, q, still, still.copy(), task.robot.joint_names, peaks=peaks)
+    segments = tuple(
+        SegmentResult(i, seg.type, 0.0, 0.0, None, {"skipped": True})
+        for i, seg in enumerate(task.segments)
+    )
+    diagnostics = {"max_position_deviation": 0.0, "max_orientation_deviation": 0.0,
+                   "min_singular_value": None, "stretch": 1.0, "stops": 0}  # fmt: skip
+    return ProgramResult(traj, segments, (*timed.lay.warnings, STILL), 1.0, None, diagnostics)
 
 
 def rest_at(timed: TimedProgram, t: float, failure: PlanningError) -> ProgramResult | None:
@@ -106,7 +195,7 @@ def rest_at(timed: TimedProgram, t: float, failure: PlanningError) -> ProgramRes
         segments=tuple(sp for sp in timed.geo.segments if sp.index <= owner),
         failure=None,
     )
-    result = assemble(replace(timed, task=short, geo=geo, timings=tuple(kept)))
+    result = assemble(settled(replace(timed, task=short, geo=geo, timings=tuple(kept))))
     fraction = (owner + share) / len(task.segments)
     return replace(
         result,

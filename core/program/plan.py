@@ -15,7 +15,7 @@ for collisions, stopping before a contact with ``allow_partial`` (``core.program
 
 from __future__ import annotations
 
-from core.program.assemble import assemble
+from core.program.assemble import assemble, settled
 from core.program.report import ProgramResult, SegmentResult
 from core.program.segments import ProgramTask
 from core.program.stop import collide
@@ -24,7 +24,7 @@ from core.program.timed import timed_program
 
 def plan_program(task: ProgramTask) -> ProgramResult:
     """Plan ``task`` (see the module docstring)."""
-    timed = timed_program(task)
+    timed = settled(timed_program(task))
     return collide(timed, assemble(timed))
 
 

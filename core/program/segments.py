@@ -12,21 +12,22 @@ from typing import Literal
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
+from core.cartesian.task import DEFAULT_MAX_ANGULAR_SPEED, DEFAULT_MAX_LINEAR_SPEED
+from core.joint.profiles import PROFILES
 from core.kinematics import Clearance, Kinematics
+from core.timing import DEFAULT_LAW
 from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
+from core.timing.speed_limited import DEFAULT_ANGULAR_ACCELERATION, DEFAULT_LINEAR_ACCELERATION
 
 SegmentType = Literal["ptp", "lin", "circ"]
-PTP_PROFILES = ("trapezoidal", "quintic", "jerk_limited")
-"""Joint profiles a PTP between stops may ask for (entries of ``core.joint.profiles.PROFILES``)."""
 MAX_SEGMENTS = 100
-DEFAULT_MAX_LINEAR_SPEED = 0.25
-"""Tool speed [m/s] of a LIN/CIRC segment without ``max_linear_speed`` (as a single line)."""
-DEFAULT_MAX_ANGULAR_SPEED = 1.0
-"""Tool angular speed [rad/s] of a LIN/CIRC segment without ``max_angular_speed``."""
-LINEAR_ACCELERATION = 1.0
-"""Tool acceleration [m/s^2] along LIN/CIRC segments (as a single line)."""
-ANGULAR_ACCELERATION = 2.0
-"""Tool angular acceleration [rad/s^2] along LIN/CIRC segments."""
+
+
+def ptp_profile(name: str) -> bool:
+    """Whether a PTP between stops may take the joint profile ``name``: a key of
+    ``core.joint.profiles.PROFILES`` held to acceleration limits (every one but ``linear``)."""
+    kind = PROFILES.get(name)
+    return kind is not None and "acceleration" in kind.rated
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,8 @@ class Segment:
             (continuous path acceleration, path jerk limited by the tool jerk limits).
         max_linear_jerk: S-curve tool jerk limit [m/s^3] (None: ``DEFAULT_LINEAR_JERK``).
         max_angular_jerk: S-curve tool angular jerk limit [rad/s^3] (None: ``DEFAULT_ANGULAR_JERK``).
+        max_linear_acceleration: LIN/CIRC tool acceleration limit [m/s^2] (None: 1).
+        max_angular_acceleration: LIN/CIRC tool angular acceleration limit [rad/s^2] (None: 2).
         position_tolerance: LIN/CIRC allowed deviation from the path [m].
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
         method: LIN/CIRC: ``"sampled"`` (the joint spline through the dense IK walk) or
@@ -73,9 +76,11 @@ class Segment:
     acceleration_scale: float = 1.0
     max_linear_speed: float | None = None
     max_angular_speed: float | None = None
-    speed_profile: str = "trapezoidal"
+    speed_profile: str = DEFAULT_LAW
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
+    max_linear_acceleration: float | None = None
+    max_angular_acceleration: float | None = None
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
     method: str = "sampled"
@@ -89,6 +94,16 @@ class Segment:
     @property
     def cartesian(self) -> bool:
         return self.type != "ptp"
+
+    def tool_accelerations(self) -> tuple[float, float]:
+        """Tool acceleration limits [m/s^2], [rad/s^2] of a LIN/CIRC segment (inf for PTP)."""
+        if not self.cartesian:
+            return np.inf, np.inf
+        lin, ang = self.max_linear_acceleration, self.max_angular_acceleration
+        return (
+            DEFAULT_LINEAR_ACCELERATION if lin is None else float(lin),
+            DEFAULT_ANGULAR_ACCELERATION if ang is None else float(ang),
+        )
 
     def tool_speeds(self) -> tuple[float, float]:
         """Tool speed limits [m/s], [rad/s] of a LIN/CIRC segment (inf for PTP)."""
@@ -117,6 +132,8 @@ class ProgramTask:
         collision_check: The collision object the program is checked with (``core.collisions``:
             the start and every goal given as joints before planning, then the whole motion
             continuously), None: nothing to check.
+        timing: The ``core.timing.TIMING_LAWS`` law of the stretches between stops whose LIN/CIRC
+            segments ask for no other (``s_curve``): ``DEFAULT_LAW``.
     """
 
     robot: Kinematics
@@ -127,3 +144,4 @@ class ProgramTask:
     allow_partial: bool = False
     deadline: Deadline = NO_DEADLINE
     collision_check: Clearance | None = None
+    timing: str = DEFAULT_LAW

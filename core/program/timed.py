@@ -10,19 +10,23 @@ stages need (sampling and the report, ``core.program.assemble``; stopping before
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from core.collisions import End, check_ends
-from core.errors import InputError
 from core.program.build import Geometry, build
 from core.program.chunk import ChunkTiming
-from core.program.pieces import Piece, ProfileTiming, chunks_of, profile_kind, time_pieces
-from core.program.s_curve import ShapedSCurve
+from core.program.pieces import (
+    Piece,
+    ProfileTiming,
+    chunk_law,
+    chunks_of,
+    profile_kind,
+    time_pieces,
+)
 from core.program.segments import ProgramTask
 from core.program.validate import Layout, layout
-from core.timing.s_curve import SCurveTiming
 
 Timed = tuple[float, ChunkTiming | ProfileTiming, list[Piece]]
 """A timed chunk: its start [s] in the program, its timing, its pieces (times in the program)."""
@@ -38,8 +42,8 @@ class TimedProgram:
         geo: Its joint path across segments and blends.
         timings: The timed chunks in order (``Timed``: start [s], timing, pieces).
         profiled: Segments timed by their PTP ``profile``.
-        timed_by: Segment index -> the timing that timed it (``time_optimal``, ``s_curve`` or a
-            joint profile's name).
+        timed_by: Segment index -> the timing that timed it (a ``TIMING_LAWS`` name for the
+            stretches between stops, or a PTP's joint profile).
     """
 
     task: ProgramTask
@@ -51,7 +55,9 @@ class TimedProgram:
 
     @property
     def duration(self) -> float:
-        """[s] of the whole program."""
+        """[s] of the whole program (0: it does not move)."""
+        if not self.timings:
+            return 0.0
         offset, timing, _ = self.timings[-1]
         return offset + timing.duration
 
@@ -66,7 +72,8 @@ def check_start(task: ProgramTask) -> None:
 
 
 def timed_program(task: ProgramTask) -> TimedProgram:
-    """Check, build and time ``task`` (see the module docstring)."""
+    """Check, build and time ``task`` (see the module docstring); a program that moves no joint
+    has no timings."""
     lay = layout(task)
     check_start(task)
     geo = build(task, lay)
@@ -80,19 +87,13 @@ def timed_program(task: ProgramTask) -> TimedProgram:
         kind = profile_kind(task, chunk)
         if kind is not None:
             profiled.add(chunk[0].owner)
-        elif timing is not None:
-            kind = (
-                "s_curve" if isinstance(timing.law, SCurveTiming | ShapedSCurve) else "time_optimal"
-            )
         for p in chunk:
             if not p.blend:
-                timed_by[p.owner] = kind or "time_optimal"
+                timed_by[p.owner] = kind or chunk_law(task, chunk)
         if timing is None:
             continue
         timings.append(placed(offset, timing, chunk))
         offset += timing.duration
-    if not timings:
-        raise InputError("the program does not move the arm", field=("segments",))
     return TimedProgram(task, lay, geo, tuple(timings), frozenset(profiled), timed_by)
 
 
@@ -116,3 +117,30 @@ def segment_share(timed: TimedProgram, index: int, q: np.ndarray) -> float:
     d = sp.q[-1] - sp.q[0]
     dd = float(d @ d)
     return 0.0 if dd == 0.0 else float(np.clip((q - sp.q[0]) @ d / dd, 0.0, 1.0))
+
+
+def restretched(timed: TimedProgram, factors: dict[int, float]) -> TimedProgram:
+    """``timed`` with chunk ``k`` run ``factors[k]`` (> 1) times slower (its path unchanged), the
+    chunks after it moved later: new pieces with the new times."""
+    timings: list[Timed] = []
+    offset = 0.0
+    for k, (old_offset, timing, chunk) in enumerate(timed.timings):
+        f = factors.get(k, 1.0)
+        if f != 1.0 and isinstance(timing, ChunkTiming):
+            timing = timing.slower(f)
+        else:
+            f = 1.0
+        pieces = [
+            replace(
+                p,
+                times=(
+                    offset + f * (p.times[0] - old_offset),
+                    offset + f * (p.times[1] - old_offset),
+                ),
+                knots=None if p.knots is None else f * p.knots,
+            )
+            for p in chunk
+        ]
+        timings.append((offset, timing, pieces))
+        offset += timing.duration
+    return replace(timed, timings=tuple(timings))

@@ -17,9 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError
+from core.joint.profiles import PROFILES
 from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
-from core.program.segments import MAX_SEGMENTS, PTP_PROFILES, ProgramTask
+from core.program.segments import MAX_SEGMENTS, ProgramTask, ptp_profile
+from core.timing import DEFAULT_LAW, TIMING_LAWS
 
 ZERO_LENGTH = 1e-9
 """A segment moving the tool less than this [m] and [rad] (PTP: joints, [rad]) is skipped."""
@@ -61,21 +63,24 @@ def layout(task: ProgramTask) -> Layout:
         for name in ("velocity_scale", "acceleration_scale"):
             if not 0.0 < getattr(seg, name) <= 1.0:
                 raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
-        if seg.speed_profile not in ("trapezoidal", "s_curve") or (
-            seg.speed_profile == "s_curve" and not seg.cartesian
+        if seg.speed_profile not in TIMING_LAWS or (
+            seg.speed_profile != DEFAULT_LAW and not seg.cartesian
         ):
             raise InputError(
-                "speed_profile must be trapezoidal or s_curve (LIN/CIRC segments)",
+                f"speed_profile must be one of {', '.join(TIMING_LAWS)} (LIN/CIRC segments)",
                 field=("segments", i, "speed_profile"),
             )
-        for name in ("max_linear_jerk", "max_angular_jerk"):
+        names = ("max_linear_jerk", "max_angular_jerk", "max_linear_acceleration",
+                 "max_angular_acceleration")  # fmt: skip
+        for name in names:
             value = getattr(seg, name)
             if value is not None and not (np.isfinite(value) and value > 0.0):
                 raise InputError(f"{name} must be > 0", field=("segments", i, name))
         if seg.profile is not None:
-            if seg.type != "ptp" or seg.profile not in PTP_PROFILES:
+            if seg.type != "ptp" or not ptp_profile(seg.profile):
+                names = ", ".join(k for k in PROFILES if ptp_profile(k))
                 raise InputError(
-                    f"profile must be one of {', '.join(PTP_PROFILES)} (PTP segments only)",
+                    f"profile must be one of {names} (PTP segments only)",
                     field=("segments", i, "profile"),
                 )
             if seg.profile == "jerk_limited" and robot.jerk_limits is None:
@@ -117,11 +122,6 @@ def layout(task: ProgramTask) -> Layout:
         goals.append(T_goal)
         lengths.append(float(length))
         T_prev = T_goal
-    if not active:
-        raise InputError(
-            "every segment has zero length: the program does not move the arm",
-            field=("segments",),
-        )
     blends = [0.0] * len(segs)
     for a, b in itertools.pairwise(active):
         r = segs[a].blend_radius

@@ -21,8 +21,9 @@ import numpy as np
 from core.budget import Deadline
 from core.cartesian.plan import plan
 from core.cartesian.task import CartesianResult, CartesianTask, PathSpec
-from core.errors import InputError, JointLimit, PlanningError, TooLarge
+from core.errors import InputError, PlanningError, TooLarge
 from core.kinematics import Kinematics
+from core.limits import entry_positions
 from core.trajectory import MAX_POINTS
 from service.convert.environment import clearance_diagnostics, collision_check, inline_urdf
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
@@ -45,25 +46,15 @@ PROFILE_POINTS = 256
 
 
 def _joint_positions(robot: Kinematics, values: list[float], where: str) -> np.ndarray:
-    """Positions of ``where`` (``"start"`` or ``"goal"``): one per joint, inside the limits."""
-    q = np.asarray(values, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(
-            f"{where}.positions needs {robot.dof} values, one per joint of the robot",
-            field=(where, "positions"),
-        )
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    bad = np.flatnonzero((q < lo) | (q > hi))
-    if bad.size:
-        j = int(bad[0])
-        raise JointLimit(
-            f"{where}.positions[{j}] is outside the position limits of joint "
-            f"'{robot.joint_names[j]}'",
-            field=(where, "positions", j),
-            joint=j,
-            s=0.0 if where == "start" else 1.0,
-        )
-    return q
+    """Positions of ``where`` (``"start"`` or ``"goal"``): one per joint, inside the limits
+    (``core.limits.entry_positions``, ``s`` 0 or 1)."""
+    return entry_positions(
+        values,
+        robot.position_limits,
+        robot.joint_names,
+        (where, "positions"),
+        s=0.0 if where == "start" else 1.0,
+    )
 
 
 def task_from_spec(

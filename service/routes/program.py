@@ -15,8 +15,9 @@ from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.errors import InputError, JointLimit, PlanningError, TooLarge
+from core.errors import PlanningError, TooLarge
 from core.kinematics import Clearance, Kinematics
+from core.limits import entry_positions
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
@@ -42,22 +43,10 @@ router = APIRouter(prefix="/v1/trajectories", tags=["program"])
 
 
 def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) -> np.ndarray:
-    q = np.asarray(values, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(f"needs {robot.dof} values, one per joint of the robot", field=loc)
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    bad = np.flatnonzero((q < lo) | (q > hi))
-    if bad.size:
-        j = int(bad[0])
-        where = ".".join(str(part) for part in loc)
-        segment = {"segment": loc[1]} if loc[0] == "segments" else {}
-        raise JointLimit(
-            f"{where}[{j}] is outside the position limits of joint '{robot.joint_names[j]}'",
-            field=(*loc, j),
-            joint=j,
-            extra=segment,
-        )
-    return q
+    """Joint positions at ``loc``: one per joint, inside the limits (``entry_positions``); a
+    segment's names its ``segment``."""
+    segment = {"segment": loc[1]} if loc[0] == "segments" else {}
+    return entry_positions(values, robot.position_limits, robot.joint_names, loc, extra=segment)
 
 
 def task_from_request(

@@ -8,8 +8,8 @@ import numpy as np
 from fastapi import APIRouter, Depends, Path
 
 from core.budget import Deadline
-from core.cartesian.joint_limits import worst_joint
 from core.errors import InputError, JointLimit, Unreachable
+from core.limits import entry_positions, worst_joint
 from robots import ik as robot_ik
 from robots import registry
 from robots.collision import link_shapes, robot_setup
@@ -52,21 +52,9 @@ def _summary(robot: Robot) -> dict:
 
 
 def _check_positions(robot: Robot, positions: list[float], field: str) -> np.ndarray:
-    """Length equal to the robot's dof (422 validation), values inside the limits (422 joint_limit)."""
-    q = np.asarray(positions, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(f"{field} needs {robot.dof} values, one per joint", field=(field,))
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    bad = np.flatnonzero((q < lo) | (q > hi))
-    if bad.size:
-        j = int(bad[0])
-        raise JointLimit(
-            f"{field}[{j}] is outside the position limits of joint '{robot.joint_names[j]}'",
-            field=(field, j),
-            joint=j,
-            extra={"joint_name": robot.joint_names[j], "limits": robot.position_limits[j].tolist()},
-        )
-    return q
+    """Length equal to the robot's dof (422 validation), values inside the limits (422 joint_limit):
+    ``core.limits.entry_positions``."""
+    return entry_positions(positions, robot.position_limits, robot.joint_names, (field,))
 
 
 @router.get("/v1/robots", response_model=list[RobotSummary], summary="Registered robots")

@@ -29,7 +29,6 @@ from typing import Any, cast
 import numpy as np
 
 from core.cartesian.ik_on_path import goal_configuration
-from core.cartesian.joint_limits import inside
 from core.cartesian.knot_nlp import (
     ACCEPT,
     COSTS,
@@ -67,6 +66,7 @@ from core.errors import (
     TimeBudgetExceeded,
 )
 from core.kinematics import SymbolicKinematics
+from core.limits import inside
 from core.path.line import StraightLine
 
 AVOID_ROUNDS = 6

@@ -16,7 +16,6 @@ import numpy as np
 
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
-from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -39,6 +38,7 @@ from core.errors import (
     Singularity,
 )
 from core.geometry import so3
+from core.limits import inside, over_speed
 from core.path.line import StraightLine
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS
 

@@ -90,7 +90,7 @@ from core.errors import (
 )
 from core.kinematics import task_rows
 from core.path import Path
-from core.timing import Profile
+from core.timing import PathLaw as Profile
 
 FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""

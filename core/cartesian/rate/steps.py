@@ -9,11 +9,11 @@ import math
 import numpy as np
 from scipy.linalg.lapack import dgesdd, dposv, dsyev
 
-from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.errors import JointLimit, JointRateLimit, NoConvergence, PlanningError, Singularity
 from core.geometry import so3
 from core.geometry.so3 import SCALAR_LOG_MAX_ANGLE, SMALL_ANGLE
+from core.limits import outside, over_speed
 
 PINV_SINGULAR_THRESHOLD = 1e-3
 """``resolved_rate`` refuses to step below this smallest singular value (J^+ would amplify 1000x)."""

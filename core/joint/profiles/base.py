@@ -41,6 +41,11 @@ class EndPinned:
     def peaks(self) -> Peaks:
         raise NotImplementedError
 
+    def switch_times(self) -> np.ndarray:
+        """Times [s] inside (0, duration) where a derivative up to the jerk steps: none for a
+        polynomial (its ends are the profile's own)."""
+        return np.zeros(0)
+
     def _evaluate_orders(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
         return tuple(self._evaluate(t, order) for order in range(3))
 

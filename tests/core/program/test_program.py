@@ -15,12 +15,11 @@ from scipy.spatial.transform import Rotation, Slerp
 from core.errors import BranchFlip, Collision, InputError, JointLimit, Singularity, Unreachable
 from core.path.arc import Arc
 from core.program.assemble import rest_at
-from core.program.build import _keep_label, build
+from core.program.build import build
 from core.program.plan import plan_program
 from core.program.segments import ProgramTask, Segment
 from core.program.timed import timed_program
 from core.program.validate import layout
-from core.program.walk import Walk
 from robots import registry
 
 UR5 = registry.get("ur5")
@@ -200,7 +199,6 @@ def test_without_blends_the_program_equals_the_single_moves():
         ((Segment("circ", goal_pose=at(0.2, 0, 0), center=at(0.1, 0.01, 0)[:3, 3] + [0.001, 0, 0]),), ("segments", 0, "center")),
         ((Segment("lin", goal_pose=at(0.1, 0, 0), velocity_scale=0.0),), ("segments", 0, "velocity_scale")),
         ((), ("segments",)),
-        ((Segment("lin", goal_pose=T0), Segment("ptp", goal_positions=HOME)), ("segments",)),
         (tuple(Segment("lin", goal_pose=at(0.01 * (k % 2), 0, 0)) for k in range(101)), ("segments",)),
     ],
 )  # fmt: skip
@@ -314,18 +312,6 @@ def test_circ_circ_and_ptp_ptp_blends_are_smooth_and_inside_their_spheres():
         seg = segs[k]
         arc = Arc(start, seg.goal_pose, center=seg.center, interim=seg.interim)
         assert np.abs(np.linalg.norm(p - arc.center, axis=1) - arc.radius).max() < 1e-6
-
-
-def test_a_walk_that_changes_configuration_label_is_cut_there_as_branch_flip():
-    other = UR5.ik_all(T0, HOME)
-    flip = other.positions[[c != UR5.configuration(HOME) for c in other.configurations]][0]
-    q = np.array([HOME, HOME + 1e-3, flip, HOME])
-    w = _keep_label(UR5, Walk(np.array([0.0, 0.1, 0.2, 0.3]), q, None, 1.0))
-    assert isinstance(w.failure, BranchFlip) and w.failure.s == 0.2
-    assert len(w.s) == 2 and np.array_equal(w.q, q[:2])
-    assert UR5.configuration(flip) in w.failure.detail
-    same = Walk(np.array([0.0, 0.1]), q[:2], None, 1.0)
-    assert _keep_label(UR5, same) is same
 
 
 def test_lin_and_circ_keep_the_configuration_label_of_their_start():
