@@ -42,6 +42,7 @@ import numpy as np
 
 from core.cartesian.task import CartesianTask
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
+from core.joint.durations import MAX_DURATION
 from core.limits import LIMIT_SLACK
 from core.path import Path
 from core.timing import TIMING_LAWS, PathLaw, TimingLaw, TimingSpec
@@ -55,8 +56,6 @@ line is a Type II singularity ("no finite slow-down"): the tool would crawl at <
 ACCELERATION_SHARE = 0.5
 """Share of each joint's acceleration limit given to the curvature term d2q/ds2 s'^2; the rest
 bounds dq/ds s''."""
-MAX_DURATION = 1e5
-"""Longest timed line [s] (the API's bound on ``duration``)."""
 _CAP_MARGIN = 1.0 - 1e-6
 """Caps are applied slightly tightened so rounding never lands a sample over a limit."""
 

@@ -20,7 +20,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from core.errors import PlanningError, TooLarge
+from core.errors import Infeasible, PlanningError, TooLarge
+from core.joint.durations import MAX_DURATION
 from core.program.chunk import ChunkTiming
 from core.program.pieces import Piece, ProfileTiming, time_pieces
 from core.program.report import ProgramResult, SegmentResult, report
@@ -41,6 +42,12 @@ def returned_times(timed: TimedProgram) -> np.ndarray:
     """The program's returned times [s]: the regular grid, every segment and blend boundary and
     every switch of a chunk's timing (``TooLarge`` over ``MAX_POINTS``)."""
     task, timings = timed.task, timed.timings
+    if not timed.duration <= MAX_DURATION:
+        raise Infeasible(
+            f"the program would last {timed.duration:.4g} s, over the {MAX_DURATION:g} s bound of "
+            "any trajectory: raise its speed and acceleration limits or scales",
+            field=("segments",),
+        )
     regular = sample_times(timed.duration, task.sample_period, task.samples, MAX_POINTS)
     bounds = [t for _, _, ch in timings for p in ch for t in p.times]
     switches = [offset + timing.switch_times() for offset, timing, _ in timings]
@@ -75,6 +82,8 @@ def settled(timed: TimedProgram) -> TimedProgram:
     """``timed`` with every chunk whose returned motion (the cubic through its returned points)
     overshoots a joint velocity or acceleration limit run that much slower (velocity by 1/k,
     acceleration by 1/k^2), until none does (``SETTLE_ROUNDS`` at most)."""
+    if not timed.timings:
+        return timed
     robot = timed.task.robot
     v_max = np.asarray(robot.velocity_limits, dtype=float)
     a_max = np.asarray(robot.acceleration_limits, dtype=float)

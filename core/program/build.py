@@ -183,7 +183,7 @@ def _cartesian(
     keep = np.concatenate([[True], np.diff(np.maximum.accumulate(s)) > 1e-12])
     keep[-1] = True
     s_k, q_k = np.maximum.accumulate(s)[keep], qs[keep]
-    grid = sample_grid(n, [s_in, s_out])
+    grid = sample_grid(n, s_in, s_out, BLEND_INTERVALS)
     grid = np.union1d(grid[grid < end], [end]) if end < 1.0 else grid
     sp = SegmentPath(i, seg, path, q, grid, q_k[:1], s_in, s_out, planned=(s_k, q_k))
     sp.q = sp.joints(grid)
@@ -228,7 +228,7 @@ def _ptp(task: ProgramTask, i: int, q: np.ndarray, r_in: float, r_out: float) ->
         return robot.fk_many(q + s[:, None] * dq)[:, :3, 3]
 
     s_in, s_out = _cuts(positions, r_in, r_out, i)
-    grid = sample_grid(intervals(seg, None, dq), [s_in, s_out])
+    grid = sample_grid(intervals(seg, None, dq), s_in, s_out, BLEND_INTERVALS)
     return SegmentPath(i, seg, None, q, grid, q + grid[:, None] * dq, s_in, s_out)
 
 

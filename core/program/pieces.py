@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import InputError, PlanningError
+from core.errors import Infeasible, InputError, PlanningError
 from core.joint.synchronous import straight_ptp
 from core.kinematics import jacobians
 from core.limits import JointLimits
@@ -233,4 +233,19 @@ def time_pieces(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | ProfileT
         return _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
     except PlanningError as err:  # e.g. an S-curve over Ruckig's duration cap
         err.extra.setdefault("segment", chunk[0].owner)
+        if isinstance(err, Infeasible) and err.field is None:  # too slow: the smallest scale
+            err.field = _slowest(task, chunk)
         raise
+
+
+def _slowest(task: ProgramTask, chunk: list[Piece]) -> tuple[str | int, ...]:
+    """The field that slows ``chunk`` most: the smallest velocity or acceleration scale of its
+    segments (an acceleration scale counts squared: time grows as 1/sqrt of it)."""
+    best, field = np.inf, ("segments", chunk[0].owner)
+    for p in chunk:
+        seg = task.segments[p.owner]
+        for name, slowdown in (("velocity_scale", seg.velocity_scale),
+                               ("acceleration_scale", np.sqrt(seg.acceleration_scale))):  # fmt: skip
+            if slowdown < best:
+                best, field = slowdown, ("segments", p.owner, name)
+    return field

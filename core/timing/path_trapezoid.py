@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.errors import Infeasible
+from core.joint.durations import MAX_DURATION
 from core.timing.joint_path import JointPath
 from core.timing.path_limits import PathLimits, path_caps
 from core.timing.path_profile import SplineLaw, Stretched, dense_times, joint_motion, stretch_for
@@ -39,6 +41,11 @@ def smooth_trapezoid(path: JointPath, limits: PathLimits) -> Stretched:
     grid = GridTiming(
         s / length, np.minimum(caps.cap / length, MAX_CAP), caps.acceleration / length
     )
+    if not grid.duration <= MAX_DURATION:
+        raise Infeasible(
+            f"the stretch would last {grid.duration:.4g} s under these limits, over the "
+            f"{MAX_DURATION:g} s bound of any trajectory"
+        )
     law = SplineLaw(grid.t, s)
     dense = dense_times(grid.t, CHECKS_PER_INTERVAL)
     _, vel, acc = joint_motion(path, law, dense)

@@ -58,14 +58,28 @@ def intervals(seg: Segment, path: Path | None, dq: np.ndarray) -> int:
     return int(np.clip(np.ceil(n), MIN_INTERVALS, MAX_INTERVALS))
 
 
-def sample_grid(n: int, cuts: list[float]) -> np.ndarray:
-    """Increasing path parameters from 0 to 1 (``n`` regular intervals), ``cuts`` included."""
+def sample_grid(n: int, s_in: float = 0.0, s_out: float = 1.0, blend: int = 40) -> np.ndarray:
+    """Increasing path parameters from 0 to 1: ``n`` regular intervals, the blend cuts ``s_in``
+    and ``s_out`` (where the tool leaves and enters the blend spheres), and about each cut a
+    grading towards the spacing of the blend on its other side (its span over ``blend``
+    intervals, doubling): so the joint spline through the samples meets a small blend without
+    ringing (a 1e-9 m blend between two 10 cm lines left the spline 0.5 mm off the lines)."""
     regular = np.linspace(0.0, 1.0, n + 1)
-    cuts_a = np.asarray(cuts, dtype=float)
+    spacing = 1.0 / n
+    cuts, graded = [], []
+    for cut, width, side in ((s_in, s_in, 1.0), (s_out, 1.0 - s_out, -1.0)):
+        if 0.0 < cut < 1.0:
+            cuts.append(cut)
+            step = width / blend
+            while step < spacing / 2.0:
+                graded.append(cut + side * step)
+                step *= 2.0
+    cuts_a = np.asarray(cuts + graded, dtype=float)
+    cuts_a = cuts_a[(cuts_a > 0.0) & (cuts_a < 1.0)]
     # Regular points closer than a third of the spacing to a cut go (the cut stays): two samples
     # much closer than their neighbours would let the path spline between them wiggle.
     if len(cuts_a):
-        near = np.min(np.abs(regular[:, None] - cuts_a[None, :]), axis=1) < 1.0 / (3 * n)
+        near = np.min(np.abs(regular[:, None] - cuts_a[None, :]), axis=1) < spacing / 3
         regular = regular[~near | (regular == 0.0) | (regular == 1.0)]
     grid = np.unique(np.concatenate([regular, cuts_a]))
     keep = np.concatenate([[True], np.diff(grid) > 1e-12])
