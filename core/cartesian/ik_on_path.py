@@ -250,7 +250,7 @@ def continuation(
     Steps of at most ``CONTINUATION_STEP`` of tool motion, 1/256 of the line, and
     ``CONTINUATION_JOINT_STEP`` of predicted joint motion (short steps where joints move fast, near
     singularities), halved down to ``MIN_CONTINUATION_STEP`` where a step fails; the failure there is
-    raised with ``extra["s_reached"]``.
+    raised with ``s_reached`` (the last point reached).
     """
     steps = int(np.ceil(max(line.length / CONTINUATION_STEP[0], line.angle / CONTINUATION_STEP[1])))
     ds_max = 1.0 / min(max(steps, 1), 256)
@@ -271,7 +271,7 @@ def continuation(
             q = solve_on_line(kin, line, s_next, q, strict=True, label=label)
         except (BranchFlip, Unreachable, JointLimit, Singularity) as err:
             if ds <= MIN_CONTINUATION_STEP:
-                err.extra["s_reached"] = s
+                err.s_reached = s
                 raise
             halved *= 0.5
             continue
@@ -293,7 +293,7 @@ def continuation(
                     s=float(s_list[i]),
                     extra={"min_singular_value": sigma},
                 )
-            err.extra["s_reached"] = s_list[i - 1]
+            err.s_reached = s_list[i - 1]
             raise err
     return Knots(np.array(s_list), np.array(q_list))
 
