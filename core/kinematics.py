@@ -281,6 +281,13 @@ class DerivedKinematics:
 
 TASK_SPACES = ("pose", "position_xy")
 
+SINGULAR_VALUE_THRESHOLD = 1e-3
+"""Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a
+configuration is singular (the one threshold of every planner: a walk's Type II failure, the
+pseudo-inverse step's refusal, the knot methods' singular set and warning). At 1e-3 a joint turning
+at 1 rad/s moves the tool by at most 1 mm/s in the weakest direction: following a line there needs
+joint rates ~100 times any arm's limits."""
+
 
 VECTORIZED_JACOBIANS = 10
 """From this many configurations on, ``jacobians`` uses the vectorized ``jacobian_many``; below it one

@@ -25,7 +25,7 @@ from core.errors import (
     Unreachable,
 )
 from core.geometry import so3
-from core.kinematics import IKResult, Kinematics, jacobians, task_rows
+from core.kinematics import SINGULAR_VALUE_THRESHOLD, IKResult, Kinematics, jacobians, task_rows
 from core.path.line import StraightLine
 
 IK_TOLERANCE = 1e-6
@@ -49,11 +49,10 @@ CONTINUATION_JOINT_STEP = 0.1
 """Largest predicted joint step [rad] of one continuation step."""
 LABEL_BOUNDARY = 1e-6
 """Smallest task-Jacobian singular value below which a solution lies on the singular set where
-labels change: it is the limit of every adjacent label's branch (``on_label``)."""
-NEAR_SINGULAR = 1e-3
-"""Smallest task-Jacobian singular value below which a pose without a solution in the start's
-label is a ``singularity`` (next to the singular set, IK may return representatives only), not a
-``branch_flip`` (``core.cartesian.walk.SINGULAR_VALUE_THRESHOLD``, the walk's threshold)."""
+labels change: it is the limit of every adjacent label's branch (``on_label``). Below
+``core.kinematics.SINGULAR_VALUE_THRESHOLD`` a pose without a solution in the start's label is a
+``singularity`` (next to the singular set, IK may return representatives only), not a
+``branch_flip``."""
 MIN_CONTINUATION_STEP = 1e-5
 """Shortest continuation step [share of s]; a failure there is the line's failure."""
 
@@ -122,7 +121,7 @@ def on_label(
     solution), else why there is none -- ``Unreachable`` when the pose has no solution at all (off
     the workspace), ``JointLimit`` when it has some only outside the joint limits, ``BranchFlip``
     when every solution carries another label -- unless one is singular: on the boundary between
-    labels (``LABEL_BOUNDARY``) it is returned, next to it (``NEAR_SINGULAR``) ``Singularity``."""
+    labels (``LABEL_BOUNDARY``) it is returned, next to it (``SINGULAR_VALUE_THRESHOLD``) ``Singularity``."""
     sols = kin.ik_all(T, np.asarray(near, dtype=float))
     same = [i for i, c in enumerate(sols.configurations) if c == label]
     if same:
@@ -133,7 +132,7 @@ def on_label(
         sigma = np.linalg.svd(J, compute_uv=False)[:, -1]
         if sigma.min() < LABEL_BOUNDARY:  # on the singular set between labels: the limit of the
             return np.asarray(sols.positions[int(np.argmin(sigma))], dtype=float)  # start's too
-        if sigma.min() < NEAR_SINGULAR:
+        if sigma.min() < SINGULAR_VALUE_THRESHOLD:
             return Singularity(
                 f"the pose {where} is next to a singularity (smallest singular value "
                 f"{sigma.min():.3g}) where IK finds no solution in the start's configuration "
@@ -286,7 +285,7 @@ def continuation(
             J = jacobians(kin, pair)[:, task_rows(kin.task_space)]
             sigma = float(np.linalg.svd(J, compute_uv=False)[:, -1].min())
             err: PlanningError = label_change(s_list[i], label)
-            if sigma < NEAR_SINGULAR:  # the label changed through the singular set
+            if sigma < SINGULAR_VALUE_THRESHOLD:  # the label changed through the singular set
                 err = Singularity(
                     f"the line passes a singularity at s={s_list[i]:.4g} (smallest singular "
                     f"value {sigma:.3g}) where the arm leaves the start's configuration ({label})",

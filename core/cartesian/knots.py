@@ -38,7 +38,7 @@ from core.cartesian.timing import PathTiming, sample_path, time_path, timed_traj
 from core.errors import (
     Infeasible,
 )
-from core.kinematics import Kinematics, jacobians, task_rows
+from core.kinematics import SINGULAR_VALUE_THRESHOLD, Kinematics, jacobians, task_rows
 from core.limits import inside, over_speed
 from core.path.base import PathDeviation
 from core.path.line import StraightLine
@@ -57,7 +57,6 @@ PATH_CHECKS = 16
 """Interior checks per knot segment when the knot path itself is checked before timing."""
 
 
-SINGULAR_VALUE_WARNING = 1e-3
 """A returned path whose task Jacobian's smallest singular value falls below this gets a warning."""
 
 
@@ -304,7 +303,7 @@ def finish_knots(
         },
     )
     result = finish(task, result, timed.s)
-    if result.min_singular_value < SINGULAR_VALUE_WARNING:
+    if result.min_singular_value < SINGULAR_VALUE_THRESHOLD:
         near = (
             f"the path passes near a singular configuration (smallest singular value "
             f"{result.min_singular_value:.3g}); joint rates stay within their limits"

@@ -115,12 +115,12 @@ class CartesianTask:
 
     def prefix(self, end: float) -> CartesianTask:
         """The task of the path cut at ``end`` in (0, 1], re-parameterized over [0, 1]: the goal is
-        the pose at ``end``; an arc keeps its circle (its interim point becomes the point at
-        ``end / 2``, so the same arc of the same circle is followed)."""
+        the pose at ``end``; a shape given by a circle keeps it (its interim point becomes the
+        point at ``end / 2``, so the same arc of the same circle is followed)."""
         path = self.line()
         T_end = path.pose(end)
         spec = self.path
-        if spec.kind != "line":
+        if spec.interim is not None or spec.center is not None:
             spec = PathSpec(spec.kind, interim=path.pose(0.5 * end)[:3, 3].copy())
         return replace(self, T_goal=T_end, path=spec)
 

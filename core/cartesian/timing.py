@@ -165,23 +165,35 @@ def time_path(
             f"the timed line would last {profile.duration:.4g} s, over the {MAX_DURATION:g} s limit",
             s=float(s[-1]),
         )
-    # Where a joint cap sets the speed (the profile rides on it) below the requested path speed.
+    warnings, slowdown = _slowdowns(s, sdot, nominal, cap, cap_v, cap_a)
+    return PathTiming(profile, float(s[-1]), warnings, slowdown)
+
+
+def _slowdowns(
+    s: np.ndarray,
+    sdot: np.ndarray,
+    nominal: float,
+    cap: np.ndarray,
+    cap_v: np.ndarray,
+    cap_a: np.ndarray,
+) -> tuple[tuple[str, ...], float]:
+    """Where a joint cap sets the path speed (the profile rides on it) below the requested one:
+    a warning per kind of limit, and the smallest ratio of the allowed speed to the requested."""
     active = (sdot >= cap * _CAP_MARGIN * (1.0 - 1e-3)) & (cap < nominal * (1.0 - 1e-6))
     active[0] = active[-1] = False
+    if not (np.any(active) and np.isfinite(nominal)):
+        return (), 1.0
     warnings = []
-    slowdown = 1.0
-    if np.any(active) and np.isfinite(nominal):
-        slowdown = float(cap[active].min() / nominal)
-        for name, c in (("velocity", cap_v), ("acceleration", cap_a)):
-            binds = active & (c <= cap)
-            if np.any(binds):
-                k = int(np.argmin(np.where(binds, c, np.inf)))
-                warnings.append(
-                    f"joint {name} limits slow the tool between s={s[binds][0]:.3f} and "
-                    f"s={s[binds][-1]:.3f} (to {c[k] / nominal:.1%} of the requested speed at "
-                    f"s={s[k]:.3f}); the path is unchanged"
-                )
-    return PathTiming(profile, float(s[-1]), tuple(warnings), slowdown)
+    for name, c in (("velocity", cap_v), ("acceleration", cap_a)):
+        binds = active & (c <= cap)
+        if np.any(binds):
+            k = int(np.argmin(np.where(binds, c, np.inf)))
+            warnings.append(
+                f"joint {name} limits slow the tool between s={s[binds][0]:.3f} and "
+                f"s={s[binds][-1]:.3f} (to {c[k] / nominal:.1%} of the requested speed at "
+                f"s={s[k]:.3f}); the path is unchanged"
+            )
+    return tuple(warnings), float(cap[active].min() / nominal)
 
 
 def _tool_cap(tool_rate: np.ndarray, linear: float | None, angular: float | None) -> np.ndarray:

@@ -47,14 +47,10 @@ from core.errors import (
     Singularity,
     Unreachable,
 )
-from core.kinematics import task_rows
+from core.kinematics import SINGULAR_VALUE_THRESHOLD, task_rows
 from core.limits import inside, worst_joint
 from core.path.line import StraightLine
 
-SINGULAR_VALUE_THRESHOLD = 1e-3
-"""Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a point is
-singular. At 1e-3 a joint turning at 1 rad/s moves the tool by at most 1 mm/s in the weakest
-direction: following the line there needs joint rates ~100 times any arm's limits."""
 STEP_PER_TOLERANCE = 10.0
 """Walk step: this many position tolerances [m] of travel, or orientation tolerances [rad]."""
 MIN_INTERVALS = 50

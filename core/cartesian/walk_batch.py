@@ -15,7 +15,8 @@ from core.cartesian.ik_on_path import follows
 from core.cartesian.path_rates import path_rates
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
-from core.cartesian.walk import MAX_JOINT_STEP, SINGULAR_VALUE_THRESHOLD, LineWalk, check_grid
+from core.cartesian.walk import MAX_JOINT_STEP, LineWalk, check_grid
+from core.kinematics import SINGULAR_VALUE_THRESHOLD
 from core.path.line import StraightLine
 
 

@@ -25,7 +25,6 @@ from core.cartesian.walk import (
     GOAL_BRANCH_WARNING,
     GOAL_SNAP,
     MIN_STEP,
-    SINGULAR_VALUE_THRESHOLD,
     TWO_PI,
     LineWalk,
     Seed,
@@ -38,6 +37,7 @@ from core.errors import (
     Singularity,
 )
 from core.geometry import so3
+from core.kinematics import SINGULAR_VALUE_THRESHOLD
 from core.limits import inside, over_speed
 from core.path.line import StraightLine
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS

@@ -21,7 +21,7 @@ T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nom
    ``position_xy``).
 
    - ``resolved_rate`` (the notes' sec. 7.2): ``J^-1 V`` (square) or the least-squares ``J^+ V``.
-     It refuses to step where the smallest singular value is below ``PINV_SINGULAR_THRESHOLD``
+     It refuses to step where the smallest singular value is below ``core.kinematics.SINGULAR_VALUE_THRESHOLD``
      (``Singularity``), where a rate exceeds its limit (``JointRateLimit``, the notes' warning) or
      where the step would leave the position limits (``JointLimit``), each with ``s``.
    - ``resolved_rate_dls``: the QP of ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at
