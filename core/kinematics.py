@@ -220,6 +220,8 @@ class DerivedKinematics:
     """Mixin for a small robot model (tests, toys) that has only ``fk`` and ``jacobian``: the batched
     and combined members of ``Kinematics`` built from them, one configuration at a time."""
 
+    dof: int
+
     def fk(self, q: np.ndarray) -> np.ndarray:  # pragma: no cover - provided by the model
         raise NotImplementedError
 

@@ -64,12 +64,12 @@ def outside(q: np.ndarray, position_limits: np.ndarray) -> np.ndarray:
     lo, hi = position_limits[:, 0], position_limits[:, 1]
     span = hi - lo
     slack = LIMIT_SLACK * np.maximum(np.where(np.isfinite(span), span, 1.0), 1.0)
-    return (q < lo - slack) | (q > hi + slack)
+    return np.asarray((q < lo - slack) | (q > hi + slack))
 
 
 def inside(q: np.ndarray, position_limits: np.ndarray) -> np.ndarray:
     """Whether each configuration of ``q`` ``(..., dof)`` is inside the limits: shape ``(...)``."""
-    return ~outside(q, position_limits).any(axis=-1)
+    return np.asarray(~outside(q, position_limits).any(axis=-1))
 
 
 def worst_joint(q: np.ndarray, position_limits: np.ndarray) -> int:

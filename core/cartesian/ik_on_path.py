@@ -26,7 +26,7 @@ from core.errors import (
 )
 from core.geometry import so3
 from core.kinematics import SINGULAR_VALUE_THRESHOLD, IKResult, Kinematics, jacobians, task_rows
-from core.path.line import StraightLine
+from core.path.base import Path
 
 IK_TOLERANCE = 1e-6
 """Largest IK residual [m] and [rad] of a point accepted as on the line (every method)."""
@@ -169,7 +169,7 @@ def label_change(s: float, label: str) -> BranchFlip:
 
 def solve_on_line(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     s: float,
     seed: np.ndarray,
     reference: np.ndarray | None = None,
@@ -241,7 +241,7 @@ def _on_branch(q: np.ndarray, anchors: list[tuple[np.ndarray, np.ndarray]], stri
 
 
 def continuation(
-    kin: Kinematics, line: StraightLine, q_start: np.ndarray, deadline: Deadline = NO_DEADLINE
+    kin: Kinematics, line: Path, q_start: np.ndarray, deadline: Deadline = NO_DEADLINE
 ) -> Knots:
     """IK along the line from ``q_start``, each point seeded where the Jacobian predicts the arm
     will be and checked to be there (``strict`` branch test): the start's branch.
@@ -284,16 +284,16 @@ def continuation(
             pair = np.array(q_list[i - 1 : i + 1])
             J = jacobians(kin, pair)[:, task_rows(kin.task_space)]
             sigma = float(np.linalg.svd(J, compute_uv=False)[:, -1].min())
-            err: PlanningError = label_change(s_list[i], label)
+            change: PlanningError = label_change(s_list[i], label)
             if sigma < SINGULAR_VALUE_THRESHOLD:  # the label changed through the singular set
-                err = Singularity(
+                change = Singularity(
                     f"the line passes a singularity at s={s_list[i]:.4g} (smallest singular "
                     f"value {sigma:.3g}) where the arm leaves the start's configuration ({label})",
                     s=float(s_list[i]),
                     extra={"min_singular_value": sigma},
                 )
-            err.s_reached = s_list[i - 1]
-            raise err
+            change.s_reached = s_list[i - 1]
+            raise change
     return Knots(np.array(s_list), np.array(q_list))
 
 
@@ -316,7 +316,7 @@ def label_note(kin: Kinematics, q_start: np.ndarray, q_goal: np.ndarray) -> str:
 
 def goal_configuration(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     q_start: np.ndarray,
     q_hint: np.ndarray | None = None,
     deadline: Deadline = NO_DEADLINE,

@@ -40,8 +40,7 @@ from core.errors import (
 )
 from core.kinematics import SINGULAR_VALUE_THRESHOLD, Kinematics, jacobians, task_rows
 from core.limits import inside, over_speed
-from core.path.base import PathDeviation
-from core.path.line import StraightLine
+from core.path.base import Path, PathDeviation
 from core.trajectory import Trajectory
 
 MARGIN = 0.9
@@ -84,7 +83,7 @@ class TaylorStats:
 
 
 def path_deviation(
-    kin: Kinematics, line: StraightLine, path: KnotPath, s: np.ndarray, tol_p: float, tol_o: float
+    kin: Kinematics, line: Path, path: KnotPath, s: np.ndarray, tol_p: float, tol_o: float
 ) -> PathDeviation:
     """Deviation (``strict_deviation``) of the knot path at path parameters ``s`` (N,)."""
     return strict_deviation(kin, line, path(s), tol_p, tol_o)
@@ -92,7 +91,7 @@ def path_deviation(
 
 def split_segments(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     segments: np.ndarray,
     stats: TaylorStats | None = None,
@@ -122,7 +121,7 @@ def split_segments(
 
 def check_knot_path(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     position_tolerance: float,
     orientation_tolerance: float,
@@ -200,7 +199,7 @@ def tool_rates(robot: Kinematics, q: np.ndarray, dq_ds: np.ndarray) -> np.ndarra
     return np.column_stack([linear, angular])
 
 
-def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> TimedPath:
+def time_knot_path(task: CartesianTask, line: Path, path: KnotPath) -> TimedPath:
     """Time ``path`` along s and sample it, with the timing every Cartesian method shares
     (``core.cartesian.timing``: a given duration, else the tool speed limits and the joint velocity and
     acceleration limits on a grid of ``_TIMING_GRID`` points plus the knots). The samples start at
@@ -228,7 +227,7 @@ def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> T
 
 def measured_knots(
     task: CartesianTask,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     *,
     stats: TaylorStats,
@@ -276,7 +275,7 @@ def measured_knots(
 
 def finish_knots(
     task: CartesianTask,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     *,
     stats: TaylorStats,

@@ -55,7 +55,7 @@ def planned(task: CartesianTask, planner: Planner) -> CartesianResult:
     except SHORTER_ERRORS:
         failure = result.failure
         located = isinstance(failure, PARTIAL_ERRORS) and failure.s is not None
-        if not (task.allow_partial and located and failure.field is None):
+        if failure is None or not (task.allow_partial and located and failure.field is None):
             raise
         return plan_partial(task, partial(_checked, planner), failure)
 

@@ -17,10 +17,10 @@ from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
 from core.cartesian.walk import MAX_JOINT_STEP, LineWalk, check_grid
 from core.kinematics import SINGULAR_VALUE_THRESHOLD
-from core.path.line import StraightLine
+from core.path.base import Path
 
 
-def batch_walk(task: CartesianTask, line: StraightLine) -> LineWalk | None:
+def batch_walk(task: CartesianTask, line: Path) -> LineWalk | None:
     """``walk_line``'s result on its default grid when the whole line passes (see the module
     docstring), else None. Only for robots with a label and task space ``pose`` (the batched
     analytic IK); others get None at once."""

@@ -80,7 +80,11 @@ def plan_joint(
     trajectory = Trajectory.from_profile(profile, times, names)
     deadline.check("joint profile sampling")
     if limits.velocity is not None or limits.acceleration is not None or limits.jerk is not None:
-        check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
+        held = spec.held(profile.peaks())
+        check_rates(
+            held["peak_velocity"], held["peak_acceleration"], limits, names,
+            peak_jerk=held["peak_jerk"],
+        )  # fmt: skip
     check_positions(trajectory.positions, limits, names, times=times)
     report = checked(trajectory, collision_check)
     return JointPlan(trajectory, profile, spec.warnings(motion), report)

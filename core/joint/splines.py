@@ -229,10 +229,10 @@ def allocate_times(
     homogeneous = boundary != "clamped" or not (np.any(start_velocity) or np.any(goal_velocity))
     if homogeneous:
         # 1e-12 longer: the exact scaling meets the binding limit, rounding may put it an ulp over
-        total = durations.clamp_duration(
+        scaled_total = durations.clamp_duration(
             best_total * (1.0 + ROUNDING_MARGIN) if np.isfinite(best_total) else 0.0, "this spline"
         )
-        return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
+        return np.concatenate([[0.0], np.cumsum(best * (scaled_total / best.sum()))])
 
     def excess(totals: np.ndarray) -> np.ndarray:
         scaled = (best * (d / best.sum()) for d in totals)
@@ -240,7 +240,7 @@ def allocate_times(
 
     lower = max(durations.MIN_DURATION, best_total / 4.0)
     upper = min(durations.MAX_DURATION, best_total * 4.0)
-    total = (
+    total: float | None = (
         durations.shortest_feasible(excess, lower, upper, grid_points=25) if lower < upper else None
     )
     if total is None or total == lower:  # nothing near the estimate, or maybe shorter below it
@@ -315,8 +315,8 @@ def plan_spline(
             return f"; times allocated within the limits would take {allocated:.6g} s"
 
         if limits.velocity is not None or limits.acceleration is not None:
-            peaks = (peak.max(axis=0) for peak in profile.segment_peaks())
-            check_rates(*peaks, limits, names, hint=hint)
+            vel, acc = (peak.max(axis=0) for peak in profile.segment_peaks())
+            check_rates(vel, acc, limits, names, hint=hint)
     trajectory = Trajectory.from_profile(
         profile, sample_times(profile.duration, sample_period, samples, max_points), names
     )

@@ -139,10 +139,11 @@ def _limits(task: ProgramTask, chunk: list[Piece], path: ChunkPath, keep: np.nda
 def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
     """Time one chunk; record each piece's (start, end) time and sample times in the chunk. None
     if it is still."""
-    qs, starts = [], []
+    qs: list[np.ndarray] = []
+    starts: list[int] = []
     for k, p in enumerate(chunk):
         first = 0 if k == 0 else 1  # pieces share their junction sample
-        starts.append(sum(len(x) for x in qs) - (0 if k == 0 else 1))
+        starts.append(sum(len(x) for x in qs) - first)
         qs.append(p.q[first:])
     q = np.concatenate(qs)
     ends = [*starts[1:], len(q) - 1]
@@ -241,7 +242,8 @@ def time_pieces(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | ProfileT
 def _slowest(task: ProgramTask, chunk: list[Piece]) -> tuple[str | int, ...]:
     """The field that slows ``chunk`` most: the smallest velocity or acceleration scale of its
     segments (an acceleration scale counts squared: time grows as 1/sqrt of it)."""
-    best, field = np.inf, ("segments", chunk[0].owner)
+    best = np.inf
+    field: tuple[str | int, ...] = ("segments", chunk[0].owner)
     for p in chunk:
         seg = task.segments[p.owner]
         for name, slowdown in (("velocity_scale", seg.velocity_scale),

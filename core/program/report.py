@@ -175,7 +175,7 @@ def report(
         results.append(SegmentResult(i, seg.type, t0, t1, blend, diag))
         t_prev = blend[1] if blend else t1
     fraction = 1.0
-    if geo.failure is not None:
+    if geo.failure is not None and geo.failed_segment is not None:
         n = len(task.segments)
         # the segments before the failing one, plus the share of it that is returned (none of a
         # PTP or of a segment whose start already fails; a LIN/CIRC up to where it got)

@@ -111,9 +111,9 @@ def check_segment(task: ProgramTask, i: int) -> None:
             f"speed_profile must be one of {', '.join(TIMING_LAWS)} (LIN/CIRC segments)",
             field=("segments", i, "speed_profile"),
         )
-    names = ("max_linear_jerk", "max_angular_jerk", "max_linear_acceleration",
-             "max_angular_acceleration")  # fmt: skip
-    for name in names:
+    tool = ("max_linear_jerk", "max_angular_jerk", "max_linear_acceleration",
+            "max_angular_acceleration")  # fmt: skip
+    for name in tool:
         value = getattr(seg, name)
         if value is not None and not (np.isfinite(value) and value > 0.0):
             raise InputError(f"{name} must be > 0", field=("segments", i, name))

@@ -202,8 +202,9 @@ def result_body(
     """The response document: the trajectory, its diagnostics and (bounded deviation) ``knots``."""
     diag = diagnostics(result, method, compute_time_ms, unchecked)
     knots = knots_body(result, time_format)
-    extra = {} if knots is None else {"knots": knots}
-    return trajectory_body(result.trajectory, diag, time_format, **extra)
+    if knots is None:
+        return trajectory_body(result.trajectory, diag, time_format)
+    return trajectory_body(result.trajectory, diag, time_format, knots=knots)
 
 
 def _bins(n: int) -> tuple[np.ndarray, np.ndarray]:

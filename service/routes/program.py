@@ -45,7 +45,7 @@ router = APIRouter(prefix="/v1/trajectories", tags=["program"])
 def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) -> np.ndarray:
     """Joint positions at ``loc``: one per joint, inside the limits (``entry_positions``); a
     segment's names its ``segment``."""
-    segment = {"segment": loc[1]} if loc[0] == "segments" else {}
+    segment: dict[str, object] = {"segment": loc[1]} if loc[0] == "segments" else {}
     return entry_positions(values, robot.position_limits, robot.joint_names, loc, extra=segment)
 
 

@@ -4,6 +4,8 @@ solution, configuration labels), and the same for inline robots (POST /v1/fk, /v
 
 from __future__ import annotations
 
+from typing import Any, cast
+
 import numpy as np
 from fastapi import APIRouter, Depends, Path
 
@@ -68,10 +70,11 @@ def _collision(robot: Robot, urdf: str | None) -> dict:
     shapes = [
         CollisionShape(
             link=link,
-            shape=(
+            shape=cast(
+                Any,
                 {"type": "capsule", "radius": radius, "length": length}
                 if length > 0
-                else {"type": "sphere", "radius": radius}
+                else {"type": "sphere", "radius": radius},
             ),
             origin=Pose.from_matrix(T),
         )

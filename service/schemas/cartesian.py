@@ -26,9 +26,9 @@ from service.schemas.common import (
     not_with,
 )
 from service.schemas.environment import Environment
-from service.schemas.registry import registry_name
+from service.schemas.registry import RegistryKey
 
-Method = registry_name(METHODS, "method")
+Method = Annotated[str, RegistryKey(METHODS, "method")]
 """The method names: the keys of ``core.cartesian.methods.METHODS`` (read at validation and at
 schema generation): a method added there is accepted here, so the API cannot drift from the code."""
 
@@ -45,9 +45,9 @@ MAX_LINEAR_ACCELERATION = 1e3
 MAX_ANGULAR_ACCELERATION = 1e4
 """Largest ``max_angular_acceleration`` [rad/s^2] accepted."""
 
-PathType = registry_name(PATHS, "path.type")
+PathType = Annotated[str, RegistryKey(PATHS, "path.type")]
 """The path shapes: the keys of ``core.path.PATHS`` (``line``, ``circ``)."""
-SpeedProfile = registry_name(TIMING_LAWS, "speed_profile")
+SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile")]
 """The timing laws: the keys of ``core.timing.TIMING_LAWS`` (``trapezoidal``, ``s_curve``)."""
 Point3 = Annotated[
     list[Position],

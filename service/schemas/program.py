@@ -33,7 +33,7 @@ from service.schemas.common import (
     not_with,
 )
 from service.schemas.environment import Environment
-from service.schemas.registry import registry_name
+from service.schemas.registry import RegistryKey
 
 MAX_LINEAR_JERK = 1e5
 """Largest ``max_linear_jerk`` [m/s^3] accepted."""
@@ -47,12 +47,12 @@ Point3 = Annotated[
     Field(min_length=3, max_length=3, description="A point [x, y, z] in [m] in the base frame."),
 ]
 Scale = Annotated[float, Field(gt=0.0, le=1.0)]
-PtpProfile = registry_name(PROFILES, "profile", ptp_profile)
+PtpProfile = Annotated[str, RegistryKey(PROFILES, "profile", ptp_profile)]
 """The joint profiles a PTP between stops may take: the keys of ``core.joint.profiles.PROFILES``
 held to acceleration limits (not ``linear``, whose velocity steps)."""
-SegmentMethod = registry_name(METHODS, "method")
+SegmentMethod = Annotated[str, RegistryKey(METHODS, "method")]
 """A LIN/CIRC segment's method: any key of ``core.cartesian.methods.METHODS``."""
-SpeedProfile = registry_name(TIMING_LAWS, "speed_profile")
+SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile")]
 """A LIN/CIRC segment's timing law: a key of ``core.timing.TIMING_LAWS``."""
 BlendRadius = Annotated[
     float,

@@ -1,7 +1,7 @@
 """Request names that are the keys of a core registry, read when they are used.
 
-``registry_name(METHODS, "method")`` is a string field valid when it is a key of the registry at the
-moment a request is validated, and documented in ``/openapi.json`` as an ``enum`` of the keys at the
+``Annotated[str, RegistryKey(METHODS, "method")]`` is a string field valid when it is a key of the
+registry at the moment a request is validated, and documented in ``/openapi.json`` as an ``enum`` of the keys at the
 moment the schema is generated: an entry added to ``METHODS``, ``PATHS``, ``TIMING_LAWS`` or
 ``PROFILES`` reaches the API with no other edit (and a test can add a throwaway entry and see it
 accepted and used). An unknown name is 422 ``validation`` at the field, naming the valid ones.
@@ -10,7 +10,7 @@ accepted and used). An unknown name is 422 ``validation`` at the field, naming t
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Annotated, Any, get_args
+from typing import Any, get_args
 
 from pydantic import GetCoreSchemaHandler, GetJsonSchemaHandler
 from pydantic.json_schema import JsonSchemaValue
@@ -57,15 +57,7 @@ class RegistryKey:
         return out
 
 
-def registry_name(
-    registry: Mapping[str, object], what: str, keep: Callable[[str], bool] | None = None
-) -> Any:
-    """A ``str`` field type whose values are the keys of ``registry`` for which ``keep`` holds
-    (all without it; see the module docstring)."""
-    return Annotated[str, RegistryKey(registry, what, keep)]
-
-
 def names_of(field_type: Any) -> list[str]:
-    """The names a ``registry_name`` field type accepts now."""
+    """The names a ``RegistryKey`` field type accepts now."""
     (key,) = [m for m in get_args(field_type)[1:] if isinstance(m, RegistryKey)]
     return key.names()

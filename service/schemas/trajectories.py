@@ -27,14 +27,14 @@ from service.schemas.common import (
     StrictModel,
 )
 from service.schemas.environment import Environment
-from service.schemas.registry import registry_name
+from service.schemas.registry import RegistryKey
 
 MAX_WAYPOINTS = 10_000
 """Most waypoints of one spline request."""
 
 MAX_JERK = 1e8
 """Largest joint jerk limit [rad/s^3 or m/s^3] accepted."""
-Profile = registry_name(PROFILES, "profile")
+Profile = Annotated[str, RegistryKey(PROFILES, "profile")]
 """The joint profiles: the keys of ``core.joint.profiles.PROFILES``."""
 Boundary = Literal["clamped", "natural", "not-a-knot"]
 KnotTime = Annotated[float, Field(ge=0.0, le=MAX_DURATION)]

@@ -379,7 +379,7 @@ def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile
     if dls:
         R, B = rates[:steps], bounds[:steps]
         near = (R <= B[:, 0] + ACTIVE_TOLERANCE) | (R >= B[:, 1] - ACTIVE_TOLERANCE)
-        active = near.any(axis=1)
+        active = np.asarray(near.any(axis=1))
     return RateRun(
         dt=dt,
         nominal_ticks=nominal,

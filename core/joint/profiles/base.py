@@ -144,7 +144,8 @@ class DurationProfileKind(ProfileKind):
     ) -> Profile:
         """Without ``duration`` the shortest one within ``limits``; with it, a plan over known
         limits is ``JointRateLimit`` naming the shortest feasible duration."""
-        amax = np.inf if limits.acceleration is None else limits.acceleration  # ramps only
+        # ramps only: the acceleration limits, infinite where unknown
+        amax = np.asarray(np.inf if limits.acceleration is None else limits.acceleration, float)
         if duration is None:
             shortest = self.shortest_duration(motion, limits)
             return self.build(
@@ -154,10 +155,13 @@ class DurationProfileKind(ProfileKind):
             raise InputError("duration must be > 0 s and at most 1e5 s", field=("duration",))
         profile = self.build(motion, duration, amax)
         if limits.velocity is not None or limits.acceleration is not None:
+            held = self.held(profile.peaks())
             check_rates(
-                **self.held(profile.peaks()),
-                limits=limits,
-                joint_names=joint_names,
+                held["peak_velocity"],
+                held["peak_acceleration"],
+                limits,
+                joint_names,
+                peak_jerk=held["peak_jerk"],
                 hint=lambda: self._shortest_hint(motion, limits),
             )
         return profile
