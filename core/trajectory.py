@@ -18,6 +18,9 @@ from core.errors import InputError, TooLarge
 MAX_POINTS = 100_000
 """Most points one trajectory (one response) may hold."""
 
+MAX_DURATION = 1e5
+"""Longest trajectory [s]: the bound of every duration a request gives or a plan takes."""
+
 DEFAULT_SAMPLE_PERIOD = 0.01
 """Sample period in [s] used when a request gives neither ``sample_period`` nor ``samples``."""
 

@@ -42,13 +42,12 @@ import numpy as np
 
 from core.cartesian.task import CartesianTask
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
-from core.joint.durations import MAX_DURATION
 from core.limits import LIMIT_SLACK
 from core.path import Path
 from core.timing import TIMING_LAWS, PathLaw, TimingLaw, TimingSpec
 from core.timing.caps import joint_speed_cap
 from core.timing.quintic import QUINTIC_PEAK_VELOCITY
-from core.trajectory import Trajectory, sample_times
+from core.trajectory import MAX_DURATION, Trajectory, sample_times
 
 MIN_SPEED_FRACTION = 1e-3
 """Slowest the joint limits may make the tool, as a share of the requested path speed; below it the

@@ -15,11 +15,10 @@ from scipy.optimize import brentq, minimize_scalar
 
 from core.errors import Infeasible
 from core.timing.quintic import QUINTIC_PEAK_ACCELERATION, QUINTIC_PEAK_VELOCITY
+from core.trajectory import MAX_DURATION
 
 MIN_DURATION = 1e-3
 """Shortest trajectory the planners return [s]; a plan that needs less (no motion) is stretched."""
-MAX_DURATION = 1e5
-"""Longest trajectory the planners return [s] (the API's bound on ``duration``)."""
 NONZERO_END_VELOCITY = (
     "the last point has non-zero velocity: a ROS 2 joint trajectory controller rejects it unless "
     "allow_nonzero_velocity_at_trajectory_end is true"

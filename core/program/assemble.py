@@ -21,14 +21,20 @@ from dataclasses import replace
 import numpy as np
 
 from core.errors import Infeasible, PlanningError, TooLarge
-from core.joint.durations import MAX_DURATION
 from core.program.chunk import ChunkTiming
 from core.program.pieces import Piece, ProfileTiming, time_pieces
 from core.program.report import ProgramResult, SegmentResult, report
 from core.program.returned import ChunkMotion, chunk_motion
 from core.program.timed import Timed, TimedProgram, placed, restretched
 from core.timing.path_profile import stretch_for
-from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS, Peaks, Trajectory, sample_times
+from core.trajectory import (
+    DEFAULT_SAMPLE_PERIOD,
+    MAX_DURATION,
+    MAX_POINTS,
+    Peaks,
+    Trajectory,
+    sample_times,
+)
 
 MIN_GAP = 1e-6
 """Regular sample times closer than this [s] to a boundary time are dropped (the boundary stays)."""

@@ -42,7 +42,7 @@ class Segment:
         profile: PTP between stops (not blended at either end): the joint profile of
             ``core.joint.profiles.PROFILES`` it is timed with (``trapezoidal``, ``quintic``,
             ``jerk_limited``), under the joint limits times its scales. None, or a PTP inside a
-            blend: the program's common timing (time-optimal along the path, C2).
+            blend: the program's timing of its stretch between stops.
         interim: CIRC: a point (3,) [m] on the arc.
         center: CIRC: the circle's centre (3,) [m].
         blend_radius: Radius [m] of the blend sphere about this segment's goal position (0: stop).
@@ -50,18 +50,18 @@ class Segment:
         acceleration_scale: Share (0, 1] of the joint acceleration limits.
         max_linear_speed: LIN/CIRC tool speed limit [m/s] (None: ``DEFAULT_MAX_LINEAR_SPEED``).
         max_angular_speed: LIN/CIRC tool angular speed limit [rad/s].
-        speed_profile: LIN/CIRC: ``"trapezoidal"`` (the program's time-optimal timing) or
-            ``"s_curve"``: the stretch between stops holding this segment is timed as one S-curve
-            (continuous path acceleration, path jerk limited by the tool jerk limits).
+        speed_profile: LIN/CIRC: a ``core.timing.TIMING_LAWS`` name: ``"trapezoidal"`` (the
+            default: the program's common timing) or ``"s_curve"``: the stretch between stops
+            holding this segment is timed as one S-curve (continuous path acceleration, path jerk
+            limited by the tool jerk limits).
         max_linear_jerk: S-curve tool jerk limit [m/s^3] (None: ``DEFAULT_LINEAR_JERK``).
         max_angular_jerk: S-curve tool angular jerk limit [rad/s^3] (None: ``DEFAULT_ANGULAR_JERK``).
         max_linear_acceleration: LIN/CIRC tool acceleration limit [m/s^2] (None: 1).
         max_angular_acceleration: LIN/CIRC tool angular acceleration limit [rad/s^2] (None: 2).
         position_tolerance: LIN/CIRC allowed deviation from the path [m].
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
-        method: LIN/CIRC: ``"sampled"`` (the joint spline through the dense IK walk) or
-            ``"bounded_deviation"`` (through as few of its IK solutions as keep the tolerance,
-            ``core.program.geometry.knots``).
+        method: LIN/CIRC: the ``core.cartesian.methods.METHODS`` entry that plans the segment's
+            joint path on its line or arc (``core.program.build``).
     """
 
     type: SegmentType

@@ -19,11 +19,11 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import Infeasible
-from core.joint.durations import MAX_DURATION
 from core.timing.joint_path import JointPath
 from core.timing.path_limits import PathLimits, path_caps
 from core.timing.path_profile import SplineLaw, Stretched, dense_times, joint_motion, stretch_for
 from core.timing.speed_limited import GridTiming
+from core.trajectory import MAX_DURATION
 
 CHECKS_PER_INTERVAL = 10
 """Dense checks of the limits per grid interval."""
