@@ -14,6 +14,7 @@ from fastapi import Query
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from core.geometry.so3 import QUAT_NORM_TOLERANCE, matrix_to_pose, pose_to_matrix
+from core.trajectory import MAX_DURATION
 
 MAX_JOINTS = 64
 MAX_POSITION = 1e4
@@ -22,8 +23,6 @@ MAX_VELOCITY = 1e4
 """Largest |joint velocity| [rad/s or m/s] accepted, in boundary conditions and limits."""
 MAX_ACCELERATION = 1e6
 """Largest |joint acceleration| [rad/s^2 or m/s^2] accepted."""
-MAX_DURATION = 1e5
-"""Longest trajectory duration [s]."""
 MAX_URDF_BYTES = 1024 * 1024
 
 
