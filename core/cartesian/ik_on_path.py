@@ -115,10 +115,10 @@ def same_branch(step: np.ndarray, predicted: np.ndarray) -> bool:
 
 def on_label(
     kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray
-) -> np.ndarray | PlanningError:
+) -> np.ndarray:
     """The exact answer at the pose ``T`` (path parameter ``s``) for a robot with labels: the
     solution with the start's configuration ``label`` nearest ``near`` (``kin.ik_all``: every
-    solution), else why there is none -- ``Unreachable`` when the pose has no solution at all (off
+    solution), else raises why there is none -- ``Unreachable`` when the pose has no solution at all (off
     the workspace), ``JointLimit`` when it has some only outside the joint limits, ``BranchFlip``
     when every solution carries another label -- unless one is singular: on the boundary between
     labels (``LABEL_BOUNDARY``) it is returned, next to it (``SINGULAR_VALUE_THRESHOLD``) ``Singularity``."""
@@ -133,7 +133,7 @@ def on_label(
         if sigma.min() < LABEL_BOUNDARY:  # on the singular set between labels: the limit of the
             return np.asarray(sols.positions[int(np.argmin(sigma))], dtype=float)  # start's too
         if sigma.min() < SINGULAR_VALUE_THRESHOLD:
-            return Singularity(
+            raise Singularity(
                 f"the pose {where} is next to a singularity (smallest singular value "
                 f"{sigma.min():.3g}) where IK finds no solution in the start's configuration "
                 f"({label}): the line passes the singular set there",
@@ -141,17 +141,17 @@ def on_label(
                 extra={"min_singular_value": float(sigma.min())},
             )
         others = ", ".join(sorted({str(c) for c in sols.configurations}))
-        return BranchFlip(
+        raise BranchFlip(
             f"the pose {where} has IK solutions only in other configurations ({others}) than the "
             f"start's ({label}): the line would flip the arm's branch there",
             s=float(s),
             extra={"configuration": label},
         )
     if sols.outside_limits:
-        return JointLimit(
+        raise JointLimit(
             f"the pose {where} is reachable only outside the joint limits", s=float(s)
         )
-    return Unreachable(
+    raise Unreachable(
         f"no IK solution {where}: the pose is off the robot's workspace",
         s=float(s),
     )
@@ -215,8 +215,6 @@ def solve_on_line(
     where = f"at s={s:.4g}"
     if label is not None:
         exact = on_label(kin, T, s, label, seed)
-        if not isinstance(exact, np.ndarray):
-            raise exact
         if _on_branch(exact, anchors, strict):
             return exact
         raise BranchFlip(

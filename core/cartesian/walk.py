@@ -239,9 +239,10 @@ class Walker:
         not (``Unreachable``, ``JointLimit``, ``BranchFlip`` also when it would jump)."""
         pred = seed.q + seed.dq * seed.h
         self.ik_calls += 1
-        found = on_label(self.robot, T, s, str(self.label), pred)
-        if isinstance(found, PlanningError):
-            return found
+        try:
+            found = on_label(self.robot, T, s, str(self.label), pred)
+        except PlanningError as err:
+            return err
         q = self.unwrap(found, pred, T)
         if not self.on_branch(q, seed, s):
             # at a singular point (the workspace's edge) the rates cannot predict the step: the
