@@ -113,9 +113,7 @@ def same_branch(step: np.ndarray, predicted: np.ndarray) -> bool:
     return float(np.max(np.abs(step))) <= limit
 
 
-def on_label(
-    kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray
-) -> np.ndarray:
+def on_label(kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray) -> np.ndarray:
     """The exact answer at the pose ``T`` (path parameter ``s``) for a robot with labels: the
     solution with the start's configuration ``label`` nearest ``near`` (``kin.ik_all``: every
     solution), else raises why there is none -- ``Unreachable`` when the pose has no solution at all (off
@@ -148,9 +146,7 @@ def on_label(
             extra={"configuration": label},
         )
     if sols.outside_limits:
-        raise JointLimit(
-            f"the pose {where} is reachable only outside the joint limits", s=float(s)
-        )
+        raise JointLimit(f"the pose {where} is reachable only outside the joint limits", s=float(s))
     raise Unreachable(
         f"no IK solution {where}: the pose is off the robot's workspace",
         s=float(s),
