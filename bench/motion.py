@@ -41,8 +41,8 @@ from core.trajectory import Trajectory  # noqa: E402
 from robots import registry  # noqa: E402
 from robots.collision import CollisionChecker  # noqa: E402
 from robots.validity import GroupedClearance  # noqa: E402
-from service import environment  # noqa: E402
 from service.convert.collision_free import usual_check  # noqa: E402
+from service.convert.environment import collision_check  # noqa: E402
 from service.schemas.environment import Environment  # noqa: E402
 
 RESULTS = ROOT / "bench" / "RESULTS.md"
@@ -79,7 +79,7 @@ class Case:
 def checker_of(problem: mbm.Problem) -> CollisionChecker:
     robot = registry.resolve(mbm.robot())
     env = Environment.model_validate(mbm.environment(problem))
-    check = environment.checker(robot, env, mbm.urdf())
+    check = collision_check(robot, env, mbm.urdf())
     assert check is not None
     return check
 

@@ -16,6 +16,7 @@ import numpy as np
 from starlette.responses import Response
 
 from core.budget import Deadline
+from core.collisions import PROFILE_POINTS
 from core.errors import Collision, InputError
 from core.limits import check_positions
 from core.motion.goals import Goals, pose_goals
@@ -27,7 +28,6 @@ from robots.validity import GroupedClearance
 from service.convert.joint import joint_limits
 from service.convert.robot import robot_and_names
 from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
-from service.environment import PROFILE_POINTS
 from service.schemas.collision_free import CollisionFreeRequest
 
 SEARCH_RESERVE = 1.0

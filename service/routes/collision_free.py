@@ -18,8 +18,9 @@ from core.motion.clearance import Unobstructed
 from core.motion.plan import plan_motion
 from robots import registry
 from robots.validity import GroupedClearance
-from service import deps, environment
+from service import deps
 from service.convert import collision_free as convert
+from service.convert.environment import collision_check, inline_urdf, unchecked_warnings
 from service.schemas.collision_free import CollisionFreeRequest
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
@@ -53,11 +54,11 @@ def collision_free_trajectory(
     started = time.perf_counter()
     settings = request.app.state.settings
     robot = registry.resolve(body.robot)
-    urdf = environment.inline_urdf(body.robot)
+    urdf = inline_urdf(body.robot)
     task = convert.motion_task(body, robot, deadline, settings.max_points, settings.time_budget_s)
-    check = environment.checker(robot, body.environment, urdf)
+    check = collision_check(robot, body.environment, urdf)
     grouped = None if check is None else GroupedClearance(check)
     result = plan_motion(task, grouped or Unobstructed(robot.dof))
     checked = convert.usual_check(check, grouped, result.trajectory)
-    warnings = environment.unchecked_warnings(robot, body.environment, urdf)
+    warnings = unchecked_warnings(robot, body.environment, urdf)
     return convert.response(result, checked, warnings, started, time_format)

@@ -14,7 +14,7 @@ from core.motion.clearance import GroupClearance
 from robots import registry
 from robots.collision import CollisionChecker, Obstacle, robot_setup
 from robots.validity import GroupedClearance
-from service import environment
+from service.convert.environment import collision_check
 from service.schemas.environment import Environment
 
 
@@ -42,7 +42,7 @@ def panda_checker() -> CollisionChecker:
     problem = mbm.problems(1, ("box",))[0]
     robot = registry.resolve(mbm.robot())
     env = Environment.model_validate(mbm.environment(problem))
-    check = environment.checker(robot, env, mbm.urdf())
+    check = collision_check(robot, env, mbm.urdf())
     assert check is not None
     return check
 

@@ -22,7 +22,7 @@ import pytest
 from bench import mbm
 from robots import registry
 from robots.collision import CollisionChecker
-from service import environment
+from service.convert.environment import collision_check
 from service.schemas.environment import Environment
 from tests.service.conftest import pose_body
 from tests.service.helpers import problem
@@ -37,7 +37,7 @@ PROBLEMS = {p.name: p for p in mbm.problems(2)}
 def checker(robot_ref: Any, env: dict[str, Any] | None) -> CollisionChecker:
     robot = registry.resolve(robot_ref)
     urdf = robot_ref.get("urdf") if isinstance(robot_ref, dict) else None
-    check = environment.checker(robot, Environment.model_validate(env or {}), urdf)
+    check = collision_check(robot, Environment.model_validate(env or {}), urdf)
     assert check is not None
     return check
 
