@@ -6,7 +6,8 @@ run, alternating, with medians, p95 and ratios (see ``bench/RESULTS.md``).
   ``bench.rate_tick``), P6 HTTP under load (``bench.http_load``), I1/I2 every IK solution and a
   labelled line (``bench.ik``), C1/C2 continuous collision checks (``bench.collision``), B1/B2 100
   UR5 plans batched against one by one (``bench.batch``), R1 retiming a path at the optimum
-  against toppra (``bench.retime``); the motion programs' P7 is
+  against toppra (``bench.retime``), M1 collision-free motions on the MotionBenchMaker Panda
+  problems against OMPL (``bench.motion``); the motion programs' P7 is
   ``python -m bench.program``.
 - ``--quick`` (CI): short rounds, fewer ticks and requests; exits non-zero only on an error (ours
   raising, a peer raising once installed, a non-200 answer), never on a timing. Peers that are not
@@ -46,7 +47,7 @@ PACKAGES = (
     "orjson", "httpx", "roboticstoolbox-python", "spatialmath-python", "pin-pink", "daqp",
     "toppra", "ruckig",
 )  # fmt: skip
-TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2", "R1", "B1", "B2")
+TASKS = ("P1", "P2", "P3", "P4", "P5", "P6", "I1", "I2", "C1", "C2", "R1", "M1", "B1", "B2")
 
 
 def versions() -> str:
@@ -80,7 +81,7 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
     """Run the tables of ``tasks``; ``emit`` each as it finishes. Returns (tables, errors)."""
     import httpx
 
-    from bench import cartesian, collision, http_load, ik, joint, rate
+    from bench import cartesian, collision, http_load, ik, joint, motion, rate
 
     budget: Budget = QUICK if quick else FULL
     tables, errors = [], []
@@ -139,6 +140,12 @@ def run(tasks: tuple[str, ...], quick: bool, emit) -> tuple[list, list[str]]:
                 do(batch.b1_lines, client, live, quick)
             if "B2" in tasks:
                 do(batch.b2_joint_moves, client, live, quick)
+    if "M1" in tasks:
+        try:
+            emit("\n".join(motion.m1_mbm(quick)))
+        except Exception as e:
+            errors.append(f"M1: {type(e).__name__}: {e}")
+            traceback.print_exc()
     if "P6" in tasks:
         requests, seconds = (400, 10.0) if quick else (20_000, 30.0)
         do(http_load.p6_http, requests, seconds, budget, measure)

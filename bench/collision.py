@@ -20,6 +20,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import datetime  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -29,8 +30,8 @@ from bench.harness import FULL, QUICK, ROOT, Row, Table, measure  # noqa: E402
 from core.budget import Deadline  # noqa: E402
 from robots import registry  # noqa: E402
 from robots.collision import CollisionChecker, Obstacle, robot_setup  # noqa: E402
-from service import environment  # noqa: E402
 from service.convert import cartesian as cartesian_convert  # noqa: E402
+from service.convert.environment import collision_check  # noqa: E402
 from service.schemas.cartesian import CartesianRequest  # noqa: E402
 from service.schemas.common import Pose  # noqa: E402
 from service.schemas.environment import Environment  # noqa: E402
@@ -59,7 +60,7 @@ def work_cell() -> list[dict]:
 def c1_check(budget) -> Table:
     robot = registry.get("ur5")
     env = Environment.model_validate({"obstacles": work_cell()})
-    check = environment.checker(robot, env)
+    check = collision_check(robot, env)
     assert check is not None
     q0 = robot.home
     qs = np.linspace(q0, q0 + np.array([2.0, 0.3, -0.3, 0.5, 0.5, 1.0]), 1000)
@@ -119,16 +120,15 @@ def c2_line(budget) -> Table:
 
     def plan(req: CartesianRequest, guard: bool) -> object:
         task = cartesian_convert.task_from_spec(req, robot, Deadline(60.0), 100_000)
-        result, _ = cartesian_convert.run(task, "sampled", 100_000)
-        if guard:
-            result = environment.guard_cartesian(task, result, req.environment, None)
-        return result
+        if not guard:  # the plan alone: no collision stage (not even self pairs)
+            task = dataclasses.replace(task, collision_check=None)
+        return cartesian_convert.run(task, "sampled", 100_000)[0]
 
     done = plan(checked, True)
     rows = [
         Row("ours: sampled line, 200 poses, no check", lambda: plan(plain, False)),
         Row("ours: the same, then checked (10 obstacles + self)", lambda: plan(checked, True),
-            note=f"min_clearance {done.diagnostics['min_clearance']:.4f} m"),  # type: ignore[attr-defined]
+            note=f"min_clearance {done.clearance.min_clearance:.4f} m"),  # type: ignore[attr-defined]
     ]  # fmt: skip
     return measure(
         Table(

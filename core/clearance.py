@@ -1,8 +1,8 @@
 """How core sees collisions: the ``Clearance`` Protocol, and the velocity-damper rows of the DLS QP.
 
-``core`` never imports ``robots``: a planner gets an object satisfying ``Clearance`` (in the service,
-``robots.collision.CollisionChecker``) and calls it on joint configurations. (Integrator: this Protocol
-belongs in ``core/kinematics.py`` next to ``Kinematics``; it lives here until that file's owners move it.)
+``core`` never imports ``robots``: a planner gets an object satisfying ``core.kinematics.Clearance``
+(in the service, ``robots.collision.CollisionChecker``) and calls it on joint configurations. The
+collision check every answer goes through is ``core.collisions``.
 
 Velocity damper (Faverjon and Tournassoud 1987; in the discrete form of mink's
 ``CollisionAvoidanceLimit``): for a pair at distance ``d`` with unit normal ``n`` (from the obstacle
@@ -20,42 +20,21 @@ crosses it. ``VelocityDampers`` is the per-tick hook of the DLS QP (``ExtraRows`
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
 
 import numpy as np
 from scipy import sparse
 
+from core.kinematics import Clearance
 
-@runtime_checkable
-class Clearance(Protocol):
-    """Distances between a robot's geometry, obstacles and its own links.
-
-    ``pair_names[p]`` is ``(robot_link, obstacle_or_link)``; ``threshold[p]`` [m] is the distance below
-    which pair ``p`` is a contact (the clearance for obstacles, 0 for self pairs);
-    ``motion_weights`` ``(P, dof)``: pair ``p``'s distance changes by at most
-    ``motion_weights[p] @ |dq|`` [m] over a linear joint step ``dq`` (a Lipschitz bound).
-    """
-
-    pair_names: list[tuple[str, str]]
-    threshold: np.ndarray
-    motion_weights: np.ndarray
-
-    def distances(self, qs: np.ndarray) -> np.ndarray:
-        """Signed distances ``(N, P)`` [m] of every pair for each row of ``qs`` ``(N, dof)``."""
-        ...
-
-    def check_path(self, times: np.ndarray, qs: np.ndarray) -> object:
-        """Continuous check of the motion through ``qs`` ``(N, dof)`` at ``times`` ``(N,)`` [s], joints
-        moving linearly between rows: first contact, min clearance and closest pair."""
-        ...
-
-    def close_pairs(
-        self, q: np.ndarray, d_influence: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Pairs closer than ``d_influence`` [m] at ``q``: indices ``(m,)``, distances ``(m,)`` [m],
-        unit normals ``(m, 3)`` towards the robot point, point Jacobians ``(m, 3, dof)``: the inputs
-        of ``velocity_damper_rows``."""
-        ...
+__all__ = [
+    "Clearance",
+    "DamperRows",
+    "VelocityDampers",
+    "clearance_ok",
+    "linearized_clearance_rows",
+    "stacked_rows",
+    "velocity_damper_rows",
+]
 
 
 @dataclass(frozen=True)

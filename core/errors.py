@@ -20,7 +20,10 @@ class PlanningError(Exception):
         joint: Index of the joint at fault.
         sample: Index of the sample at fault.
         partial: A partial result (for example the reachable prefix of a line) the caller may return.
-        extra: Further JSON-serializable facts for the problem body.
+        extra: Further JSON-serializable facts for the problem body (public: every key is
+            documented in docs/api.md).
+        s_reached: Where a path was last reached before ``s`` (internal: how far a partial plan
+            may go; never in a problem body).
     """
 
     code: ClassVar[str] = "infeasible"
@@ -36,6 +39,7 @@ class PlanningError(Exception):
         sample: int | None = None,
         partial: Any = None,
         extra: dict[str, Any] | None = None,
+        s_reached: float | None = None,
     ) -> None:
         super().__init__(detail)
         self.detail = detail
@@ -45,6 +49,7 @@ class PlanningError(Exception):
         self.sample = sample
         self.partial = partial
         self.extra = dict(extra or {})
+        self.s_reached = s_reached
 
 
 class InputError(PlanningError):
@@ -166,3 +171,14 @@ class Collision(PlanningError):
 
 
 ALL_ERRORS = (*ALL_ERRORS, Collision)
+
+
+class NoPathFound(PlanningError):
+    """A collision-free motion search found no path within its time limit; ``extra`` carries the
+    planner's figures (``planner``: name, seed, iterations, states, plan_time_ms)."""
+
+    code = "no_path_found"
+    title = "No path found"
+
+
+ALL_ERRORS = (*ALL_ERRORS, NoPathFound)

@@ -7,13 +7,17 @@
   linear velocity in [m/s], then the angular velocity in [rad/s], both expressed in the base frame).
 - ``task_space``: ``"pose"`` (6+ DOF arms: position and orientation count) or ``"position_xy"``
   (planar arms: only x and y of the tip position count; rows 0 and 1 of the Jacobian).
+
+``Clearance`` is how core sees collisions (``robots.collision.CollisionChecker`` satisfies it): the
+distances between a robot's geometry, the obstacles and its own links, and the continuous check
+(``PathCheck``) that ``core.collisions`` runs on every answer.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -242,6 +246,8 @@ class DerivedKinematics:
     """Mixin for a small robot model (tests, toys) that has only ``fk`` and ``jacobian``: the batched
     and combined members of ``Kinematics`` built from them, one configuration at a time."""
 
+    dof: int
+
     def fk(self, q: np.ndarray) -> np.ndarray:  # pragma: no cover - provided by the model
         raise NotImplementedError
 
@@ -303,6 +309,13 @@ class DerivedKinematics:
 
 TASK_SPACES = ("pose", "position_xy")
 
+SINGULAR_VALUE_THRESHOLD = 1e-3
+"""Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a
+configuration is singular (the one threshold of every planner: a walk's Type II failure, the
+pseudo-inverse step's refusal, the knot methods' singular set and warning). At 1e-3 a joint turning
+at 1 rad/s moves the tool by at most 1 mm/s in the weakest direction: following a line there needs
+joint rates ~100 times any arm's limits."""
+
 
 VECTORIZED_JACOBIANS = 10
 """From this many configurations on, ``jacobians`` uses the vectorized ``jacobian_many``; below it one
@@ -320,3 +333,84 @@ def jacobians(kin: Kinematics, positions: np.ndarray) -> np.ndarray:
 def task_rows(task_space: str) -> np.ndarray:
     """Indices of the Jacobian rows that the task constrains: all six, or x and y."""
     return np.arange(6) if task_space == "pose" else np.array([0, 1])
+
+
+class Contact(Protocol):
+    """The first configuration of a motion found closer than a pair's threshold."""
+
+    @property
+    def time(self) -> float:
+        """[s] from the start of the motion."""
+        ...
+
+    @property
+    def links(self) -> tuple[str, str]:
+        """``(robot_link, obstacle_name_or_link)``."""
+        ...
+
+    @property
+    def distance(self) -> float:
+        """[m] signed (negative: penetration)."""
+        ...
+
+    @property
+    def index(self) -> int:
+        """Index (0-based) of the segment between returned points that holds the contact."""
+        ...
+
+
+class PathCheck(Protocol):
+    """Result of a continuous check (``Clearance.check_path``)."""
+
+    @property
+    def contact(self) -> Contact | None:
+        """The first contact, None when the motion is clear."""
+        ...
+
+    @property
+    def min_clearance(self) -> float:
+        """[m] the smallest distance over every checked pair; inf when no pair is checked."""
+        ...
+
+    @property
+    def closest(self) -> tuple[tuple[str, str], float] | None:
+        """``(links, time [s])`` of that smallest distance."""
+        ...
+
+
+@runtime_checkable
+class Clearance(Protocol):
+    """Distances between a robot's geometry, obstacles and its own links.
+
+    ``pair_names[p]`` is ``(robot_link, obstacle_or_link)``; ``threshold[p]`` [m] is the distance below
+    which pair ``p`` is a contact (the clearance for obstacles, 0 for self pairs);
+    ``motion_weights`` ``(P, dof)``: pair ``p``'s distance changes by at most
+    ``motion_weights[p] @ |dq|`` [m] over a linear joint step ``dq`` (a Lipschitz bound; a row of
+    zeros: a robot link fixed to the base, whose distance no joint changes).
+    """
+
+    @property
+    def pair_names(self) -> list[tuple[str, str]]: ...
+
+    @property
+    def threshold(self) -> np.ndarray: ...
+
+    @property
+    def motion_weights(self) -> np.ndarray: ...
+
+    def distances(self, qs: np.ndarray) -> np.ndarray:
+        """Signed distances ``(N, P)`` [m] of every pair for each row of ``qs`` ``(N, dof)``."""
+        ...
+
+    def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
+        """Continuous check of the motion through ``qs`` ``(N, dof)`` at ``times`` ``(N,)`` [s], joints
+        moving linearly between rows: first contact, min clearance and closest pair."""
+        ...
+
+    def close_pairs(
+        self, q: np.ndarray, d_influence: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Pairs closer than ``d_influence`` [m] at ``q``: indices ``(m,)``, distances ``(m,)`` [m],
+        unit normals ``(m, 3)`` towards the robot point, point Jacobians ``(m, 3, dof)``: the inputs
+        of ``core.clearance.velocity_damper_rows``."""
+        ...

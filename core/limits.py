@@ -1,12 +1,14 @@
 """Per-joint limits and the one set of checks of request values and plans against them.
 
 ``JointLimits`` holds velocity, acceleration, jerk and position limits (``None``: not known,
-unbounded); ``joint_vector`` validates one value per joint. The checks, with one set of slacks
-(``POSITION_TOLERANCE`` absolute, ``RATE_TOLERANCE`` relative) for every planner:
+unbounded); ``joint_vector`` validates one value per joint. The checks, with one slack
+(``LIMIT_SLACK``: a position may pass a limit by this share of the joint's finite range, at least
+1 rad or m; a rate by this share of its limit) for every planner, joint, Cartesian and program:
 
-- masks, for planners that decide what to do with a violation: ``outside_position_limits`` and
-  ``over_rate_limit``;
-- raising checks: ``check_rates``, ``check_boundary_rates`` and ``check_positions`` raise
+- masks, for planners that decide what to do with a violation: ``outside`` (``inside``,
+  ``worst_joint``) and ``over_rate_limit`` (``over_speed``);
+- raising checks: ``check_rates``, ``check_boundary_rates``, ``check_positions`` and
+  ``entry_positions`` (a request's joint positions: one per joint, finite, inside the limits) raise
   ``JointRateLimit`` / ``JointLimit`` with the joint, and the request field or the sample at fault.
 
 Units: [rad or m], per [s], per [s^2], per [s^3]; arrays ``(dof,)`` or ``(N, dof)``.
@@ -23,10 +25,9 @@ import numpy as np
 
 from core.errors import InputError, JointLimit, JointRateLimit
 
-RATE_TOLERANCE = 1e-9
-"""Relative slack when a sampled plan is checked against velocity/acceleration limits."""
-POSITION_TOLERANCE = 1e-9
-"""Absolute slack [rad or m] when positions are checked against position limits."""
+LIMIT_SLACK = 1e-9
+"""Rounding slack: a position may pass a limit by this share of the joint's range (at least 1 rad
+or m), a speed, acceleration or jerk by this share of its limit."""
 
 Field = tuple[str | int, ...]
 
@@ -57,21 +58,38 @@ def _dotted(field: Field) -> str:
     return ".".join(str(p) for p in field)
 
 
-def outside_position_limits(
-    positions: np.ndarray, position_limits: np.ndarray, tolerance: float = POSITION_TOLERANCE
-) -> np.ndarray:
-    """Boolean mask, ``positions``' shape (``(dof,)`` or ``(N, dof)``): True where a value lies
-    more than ``tolerance`` [rad or m] outside ``position_limits`` ``(dof, 2)`` (lower, upper)."""
+def outside(q: np.ndarray, position_limits: np.ndarray) -> np.ndarray:
+    """Which joint positions of ``q`` ``(..., dof)`` are outside ``position_limits`` ``(dof, 2)``
+    (lower, upper; infinite allowed) by more than the slack: a bool array of ``q``'s shape."""
     lo, hi = position_limits[:, 0], position_limits[:, 1]
-    return (positions < lo - tolerance) | (positions > hi + tolerance)
+    span = hi - lo
+    slack = LIMIT_SLACK * np.maximum(np.where(np.isfinite(span), span, 1.0), 1.0)
+    return np.asarray((q < lo - slack) | (q > hi + slack))
+
+
+def inside(q: np.ndarray, position_limits: np.ndarray) -> np.ndarray:
+    """Whether each configuration of ``q`` ``(..., dof)`` is inside the limits: shape ``(...)``."""
+    return np.asarray(~outside(q, position_limits).any(axis=-1))
+
+
+def worst_joint(q: np.ndarray, position_limits: np.ndarray) -> int:
+    """The joint of ``q`` ``(dof,)`` farthest outside (or least inside) its position limits."""
+    lo, hi = position_limits[:, 0], position_limits[:, 1]
+    return int(np.argmax(np.maximum(lo - q, q - hi)))
 
 
 def over_rate_limit(
-    values: np.ndarray, limit: np.ndarray, tolerance: float = RATE_TOLERANCE
+    values: np.ndarray, limit: np.ndarray, tolerance: float = LIMIT_SLACK
 ) -> np.ndarray:
     """Boolean mask, ``values``' shape: True where ``|values|`` exceeds ``limit`` ``(dof,)`` (a
     velocity, acceleration or jerk limit, ``inf`` allowed) by more than the relative ``tolerance``."""
     return np.abs(values) > limit * (1.0 + tolerance)
+
+
+def over_speed(velocities: np.ndarray, velocity_limits: np.ndarray) -> np.ndarray:
+    """Which joint speeds of ``velocities`` ``(..., dof)`` exceed ``velocity_limits`` ``(dof,)`` by
+    more than the slack: a bool array of ``velocities``' shape."""
+    return over_rate_limit(velocities, velocity_limits)
 
 
 class LimitedChain(Protocol):
@@ -144,7 +162,7 @@ def check_rates(
     joint_names: Sequence[str],
     *,
     peak_jerk: np.ndarray | None = None,
-    tolerance: float = RATE_TOLERANCE,
+    tolerance: float = LIMIT_SLACK,
     hint: Callable[[], str] | None = None,
 ) -> None:
     """Raise ``JointRateLimit`` for the joint that exceeds a velocity, acceleration or jerk limit
@@ -207,7 +225,7 @@ def check_positions(
     """
     if limits.position is None:
         return
-    bad = outside_position_limits(positions, limits.position)
+    bad = outside(positions, limits.position)
     if not bad.any():
         return
     row, j = (int(i) for i in np.argwhere(bad)[0])
@@ -221,3 +239,35 @@ def check_positions(
     raise JointLimit(
         f"the plan takes joint {name} outside its position limits{when}", joint=j, sample=row
     )
+
+
+def entry_positions(
+    values: object,
+    position_limits: np.ndarray,
+    joint_names: Sequence[str],
+    field: Field,
+    *,
+    s: float | None = None,
+    extra: dict[str, object] | None = None,
+) -> np.ndarray:
+    """A request's joint positions at ``field``: ``(dof,)`` finite values (``InputError``), inside
+    ``position_limits`` (``JointLimit`` naming ``field + (joint,)``, the joint, its name and
+    limits, ``s`` and ``extra``) with the one slack of every planner. The one entry check of the
+    routes."""
+    dof = len(joint_names)
+    q = joint_vector(values, dof, field)
+    bad = outside(q, position_limits)
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        raise JointLimit(
+            f"{_dotted(field)}[{j}] is outside the position limits of joint '{joint_names[j]}'",
+            field=(*field, j),
+            joint=j,
+            s=s,
+            extra={
+                "joint_name": joint_names[j],
+                "limits": [float(position_limits[j, 0]), float(position_limits[j, 1])],
+                **(extra or {}),
+            },
+        )
+    return q

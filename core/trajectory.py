@@ -57,6 +57,11 @@ class Profile(Protocol):
 
     def peaks(self) -> Peaks: ...
 
+    def switch_times(self) -> np.ndarray:
+        """Times [s] inside (0, duration) where a derivative up to the jerk may step (between
+        two of them the profile is smooth)."""
+        ...
+
 
 @dataclass(frozen=True)
 class Trajectory:

@@ -17,6 +17,7 @@ from service.routes import (
     batch,
     cartesian,
     collision,
+    collision_free,
     compare,
     health,
     playground,
@@ -28,7 +29,7 @@ from service.routes import (
 )
 from service.settings import Settings
 
-TRAJECTORY_ROUTERS = (trajectories, retime, cartesian, compare, program)
+TRAJECTORY_ROUTERS = (trajectories, retime, cartesian, compare, program, collision_free)
 """Routers whose answers are trajectories: each route gets a deadline and ``?layout=``."""
 PLANNING_ROUTERS = (robots, collision)
 """Other routers that compute: each route gets a deadline."""

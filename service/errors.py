@@ -47,6 +47,7 @@ STATUS: dict[type[ex.PlanningError], int] = {
     ex.TooLarge: 422,
     ex.TimeBudgetExceeded: 422,
     ex.Collision: 422,
+    ex.NoPathFound: 422,
 }
 
 

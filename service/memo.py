@@ -5,7 +5,7 @@ the checker for the rate controller's clearance rows and again for the continuou
 answer), and the items of ``POST /v1/batch`` mostly send the same robot and the same environment
 (cuRobo's ``plan_batch`` builds its robot and world models once for a whole batch). ``shared(kind,
 key)`` decorates the service's one function for each (``service.convert.robot.resolve_robot``,
-``service.environment.checker``): while a ``Memo`` is active, a call whose ``key`` (the canonical
+``service.convert.environment.collision_check``): while a ``Memo`` is active, a call whose ``key`` (the canonical
 JSON of the robot reference and the environment) was seen returns the first call's result; outside
 one it is a plain call. A call that raises stores nothing, so every error is raised again at its
 own field.

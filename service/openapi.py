@@ -54,6 +54,7 @@ OPERATION_IDS: dict[tuple[str, str], str] = {
     ("POST", "/v1/trajectories/cartesian"): "plan_cartesian_trajectory",
     ("POST", "/v1/trajectories/program"): "plan_program_trajectory",
     ("POST", "/v1/trajectories/retime"): "retime_trajectory",
+    ("POST", "/v1/trajectories/collision_free"): "plan_collision_free_trajectory",
     ("POST", "/v1/compare"): "compare_cartesian_methods",
     ("POST", "/v1/batch"): "plan_batch",
 }

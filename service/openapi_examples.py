@@ -198,4 +198,27 @@ REQUEST_EXAMPLES: dict[str, dict[str, dict[str, Any]]] = {
     "plan_batch": {
         "two_items": _example("A joint move and an FK query in one batch", BATCH_EXAMPLE),
     },
+    "plan_collision_free_trajectory": {
+        "around_a_ball": _example(
+            "UR5 around a ball on the direct joint path, 2 cm clearance",
+            {
+                "robot": "ur5",
+                "start": {"positions": UR5_HOME},
+                "goal": {"positions": [1.2, -1.3, 1.9, -2.2, -1.4, 0.4]},
+                "environment": {
+                    "obstacles": [
+                        {
+                            "name": "ball",
+                            "shape": {"type": "sphere", "radius": 0.05},
+                            "pose": {
+                                "position": [-0.423, -0.43, 0.191],
+                                "orientation": [0, 0, 0, 1],
+                            },
+                        }
+                    ],
+                    "clearance": 0.02,
+                },
+            },
+        ),
+    },
 }

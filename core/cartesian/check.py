@@ -8,7 +8,6 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
 from core.cartesian.ik_on_path import label_change
-from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.measure import DeviationReport, measure_chunked, min_singular_values
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import (
@@ -18,6 +17,7 @@ from core.errors import (
     JointRateLimit,
 )
 from core.kinematics import Kinematics
+from core.limits import outside, over_speed
 from core.trajectory import Trajectory
 
 

@@ -25,8 +25,8 @@ from core.errors import (
     Unreachable,
 )
 from core.geometry import so3
-from core.kinematics import IKResult, Kinematics, jacobians, task_rows
-from core.path.line import StraightLine
+from core.kinematics import SINGULAR_VALUE_THRESHOLD, IKResult, Kinematics, jacobians, task_rows
+from core.path.base import Path
 
 IK_TOLERANCE = 1e-6
 """Largest IK residual [m] and [rad] of a point accepted as on the line (every method)."""
@@ -49,11 +49,10 @@ CONTINUATION_JOINT_STEP = 0.1
 """Largest predicted joint step [rad] of one continuation step."""
 LABEL_BOUNDARY = 1e-6
 """Smallest task-Jacobian singular value below which a solution lies on the singular set where
-labels change: it is the limit of every adjacent label's branch (``on_label``)."""
-NEAR_SINGULAR = 1e-3
-"""Smallest task-Jacobian singular value below which a pose without a solution in the start's
-label is a ``singularity`` (next to the singular set, IK may return representatives only), not a
-``branch_flip`` (``core.cartesian.walk.SINGULAR_VALUE_THRESHOLD``, the walk's threshold)."""
+labels change: it is the limit of every adjacent label's branch (``on_label``). Below
+``core.kinematics.SINGULAR_VALUE_THRESHOLD`` a pose without a solution in the start's label is a
+``singularity`` (next to the singular set, IK may return representatives only), not a
+``branch_flip``."""
 MIN_CONTINUATION_STEP = 1e-5
 """Shortest continuation step [share of s]; a failure there is the line's failure."""
 
@@ -114,15 +113,13 @@ def same_branch(step: np.ndarray, predicted: np.ndarray) -> bool:
     return float(np.max(np.abs(step))) <= limit
 
 
-def on_label(
-    kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray
-) -> np.ndarray | PlanningError:
+def on_label(kin: Kinematics, T: np.ndarray, s: float, label: str, near: np.ndarray) -> np.ndarray:
     """The exact answer at the pose ``T`` (path parameter ``s``) for a robot with labels: the
     solution with the start's configuration ``label`` nearest ``near`` (``kin.ik_all``: every
-    solution), else why there is none -- ``Unreachable`` when the pose has no solution at all (off
+    solution), else raises why there is none -- ``Unreachable`` when the pose has no solution at all (off
     the workspace), ``JointLimit`` when it has some only outside the joint limits, ``BranchFlip``
     when every solution carries another label -- unless one is singular: on the boundary between
-    labels (``LABEL_BOUNDARY``) it is returned, next to it (``NEAR_SINGULAR``) ``Singularity``."""
+    labels (``LABEL_BOUNDARY``) it is returned, next to it (``SINGULAR_VALUE_THRESHOLD``) ``Singularity``."""
     sols = kin.ik_all(T, np.asarray(near, dtype=float))
     same = [i for i, c in enumerate(sols.configurations) if c == label]
     if same:
@@ -133,8 +130,8 @@ def on_label(
         sigma = np.linalg.svd(J, compute_uv=False)[:, -1]
         if sigma.min() < LABEL_BOUNDARY:  # on the singular set between labels: the limit of the
             return np.asarray(sols.positions[int(np.argmin(sigma))], dtype=float)  # start's too
-        if sigma.min() < NEAR_SINGULAR:
-            return Singularity(
+        if sigma.min() < SINGULAR_VALUE_THRESHOLD:
+            raise Singularity(
                 f"the pose {where} is next to a singularity (smallest singular value "
                 f"{sigma.min():.3g}) where IK finds no solution in the start's configuration "
                 f"({label}): the line passes the singular set there",
@@ -142,17 +139,15 @@ def on_label(
                 extra={"min_singular_value": float(sigma.min())},
             )
         others = ", ".join(sorted({str(c) for c in sols.configurations}))
-        return BranchFlip(
+        raise BranchFlip(
             f"the pose {where} has IK solutions only in other configurations ({others}) than the "
             f"start's ({label}): the line would flip the arm's branch there",
             s=float(s),
             extra={"configuration": label},
         )
     if sols.outside_limits:
-        return JointLimit(
-            f"the pose {where} is reachable only outside the joint limits", s=float(s)
-        )
-    return Unreachable(
+        raise JointLimit(f"the pose {where} is reachable only outside the joint limits", s=float(s))
+    raise Unreachable(
         f"no IK solution {where}: the pose is off the robot's workspace",
         s=float(s),
     )
@@ -170,7 +165,7 @@ def label_change(s: float, label: str) -> BranchFlip:
 
 def solve_on_line(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     s: float,
     seed: np.ndarray,
     reference: np.ndarray | None = None,
@@ -216,8 +211,6 @@ def solve_on_line(
     where = f"at s={s:.4g}"
     if label is not None:
         exact = on_label(kin, T, s, label, seed)
-        if not isinstance(exact, np.ndarray):
-            raise exact
         if _on_branch(exact, anchors, strict):
             return exact
         raise BranchFlip(
@@ -242,7 +235,7 @@ def _on_branch(q: np.ndarray, anchors: list[tuple[np.ndarray, np.ndarray]], stri
 
 
 def continuation(
-    kin: Kinematics, line: StraightLine, q_start: np.ndarray, deadline: Deadline = NO_DEADLINE
+    kin: Kinematics, line: Path, q_start: np.ndarray, deadline: Deadline = NO_DEADLINE
 ) -> Knots:
     """IK along the line from ``q_start``, each point seeded where the Jacobian predicts the arm
     will be and checked to be there (``strict`` branch test): the start's branch.
@@ -250,7 +243,7 @@ def continuation(
     Steps of at most ``CONTINUATION_STEP`` of tool motion, 1/256 of the line, and
     ``CONTINUATION_JOINT_STEP`` of predicted joint motion (short steps where joints move fast, near
     singularities), halved down to ``MIN_CONTINUATION_STEP`` where a step fails; the failure there is
-    raised with ``extra["s_reached"]``.
+    raised with ``s_reached`` (the last point reached).
     """
     steps = int(np.ceil(max(line.length / CONTINUATION_STEP[0], line.angle / CONTINUATION_STEP[1])))
     ds_max = 1.0 / min(max(steps, 1), 256)
@@ -271,7 +264,7 @@ def continuation(
             q = solve_on_line(kin, line, s_next, q, strict=True, label=label)
         except (BranchFlip, Unreachable, JointLimit, Singularity) as err:
             if ds <= MIN_CONTINUATION_STEP:
-                err.extra["s_reached"] = s
+                err.s_reached = s
                 raise
             halved *= 0.5
             continue
@@ -285,16 +278,16 @@ def continuation(
             pair = np.array(q_list[i - 1 : i + 1])
             J = jacobians(kin, pair)[:, task_rows(kin.task_space)]
             sigma = float(np.linalg.svd(J, compute_uv=False)[:, -1].min())
-            err: PlanningError = label_change(s_list[i], label)
-            if sigma < NEAR_SINGULAR:  # the label changed through the singular set
-                err = Singularity(
+            change: PlanningError = label_change(s_list[i], label)
+            if sigma < SINGULAR_VALUE_THRESHOLD:  # the label changed through the singular set
+                change = Singularity(
                     f"the line passes a singularity at s={s_list[i]:.4g} (smallest singular "
                     f"value {sigma:.3g}) where the arm leaves the start's configuration ({label})",
                     s=float(s_list[i]),
                     extra={"min_singular_value": sigma},
                 )
-            err.extra["s_reached"] = s_list[i - 1]
-            raise err
+            change.s_reached = s_list[i - 1]
+            raise change
     return Knots(np.array(s_list), np.array(q_list))
 
 
@@ -317,7 +310,7 @@ def label_note(kin: Kinematics, q_start: np.ndarray, q_goal: np.ndarray) -> str:
 
 def goal_configuration(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     q_start: np.ndarray,
     q_hint: np.ndarray | None = None,
     deadline: Deadline = NO_DEADLINE,

@@ -31,7 +31,6 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import reference_at, solve_on_line
-from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.knot_path import KnotPath, Knots
 from core.cartesian.measure import DEFAULT_CHECKS, dense_times, interval_excess, strict_deviation
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -39,9 +38,9 @@ from core.cartesian.timing import PathTiming, sample_path, time_path, timed_traj
 from core.errors import (
     Infeasible,
 )
-from core.kinematics import Kinematics, jacobians, task_rows
-from core.path.base import PathDeviation
-from core.path.line import StraightLine
+from core.kinematics import SINGULAR_VALUE_THRESHOLD, Kinematics, jacobians, task_rows
+from core.limits import inside, over_speed
+from core.path.base import Path, PathDeviation
 from core.trajectory import Trajectory
 
 MARGIN = 0.9
@@ -57,7 +56,6 @@ PATH_CHECKS = 16
 """Interior checks per knot segment when the knot path itself is checked before timing."""
 
 
-SINGULAR_VALUE_WARNING = 1e-3
 """A returned path whose task Jacobian's smallest singular value falls below this gets a warning."""
 
 
@@ -85,7 +83,7 @@ class TaylorStats:
 
 
 def path_deviation(
-    kin: Kinematics, line: StraightLine, path: KnotPath, s: np.ndarray, tol_p: float, tol_o: float
+    kin: Kinematics, line: Path, path: KnotPath, s: np.ndarray, tol_p: float, tol_o: float
 ) -> PathDeviation:
     """Deviation (``strict_deviation``) of the knot path at path parameters ``s`` (N,)."""
     return strict_deviation(kin, line, path(s), tol_p, tol_o)
@@ -93,7 +91,7 @@ def path_deviation(
 
 def split_segments(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     segments: np.ndarray,
     stats: TaylorStats | None = None,
@@ -123,7 +121,7 @@ def split_segments(
 
 def check_knot_path(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     position_tolerance: float,
     orientation_tolerance: float,
@@ -201,7 +199,7 @@ def tool_rates(robot: Kinematics, q: np.ndarray, dq_ds: np.ndarray) -> np.ndarra
     return np.column_stack([linear, angular])
 
 
-def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> TimedPath:
+def time_knot_path(task: CartesianTask, line: Path, path: KnotPath) -> TimedPath:
     """Time ``path`` along s and sample it, with the timing every Cartesian method shares
     (``core.cartesian.timing``: a given duration, else the tool speed limits and the joint velocity and
     acceleration limits on a grid of ``_TIMING_GRID`` points plus the knots). The samples start at
@@ -229,7 +227,7 @@ def time_knot_path(task: CartesianTask, line: StraightLine, path: KnotPath) -> T
 
 def measured_knots(
     task: CartesianTask,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     *,
     stats: TaylorStats,
@@ -277,7 +275,7 @@ def measured_knots(
 
 def finish_knots(
     task: CartesianTask,
-    line: StraightLine,
+    line: Path,
     knots: Knots,
     *,
     stats: TaylorStats,
@@ -304,7 +302,7 @@ def finish_knots(
         },
     )
     result = finish(task, result, timed.s)
-    if result.min_singular_value < SINGULAR_VALUE_WARNING:
+    if result.min_singular_value < SINGULAR_VALUE_THRESHOLD:
         near = (
             f"the path passes near a singular configuration (smallest singular value "
             f"{result.min_singular_value:.3g}); joint rates stay within their limits"

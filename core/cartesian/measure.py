@@ -19,8 +19,7 @@ from scipy.interpolate import CubicHermiteSpline
 
 from core.budget import NO_DEADLINE, Deadline
 from core.kinematics import Kinematics, jacobians, task_rows
-from core.path.base import PathDeviation
-from core.path.line import StraightLine
+from core.path.base import Path, PathDeviation
 from core.trajectory import Trajectory
 
 DEFAULT_CHECKS = 10
@@ -70,7 +69,7 @@ def interpolate_linear(times: np.ndarray, positions: np.ndarray, t: np.ndarray) 
 
 def measure_deviation(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     traj: Trajectory,
     checks: int = DEFAULT_CHECKS,
     position_tolerance: float = 1e-3,
@@ -123,7 +122,7 @@ MEASURE_CHUNK = 2048
 
 
 def strict_deviation(
-    kin: Kinematics, line: StraightLine, q: np.ndarray, tol_p: float, tol_o: float
+    kin: Kinematics, line: Path, q: np.ndarray, tol_p: float, tol_o: float
 ) -> PathDeviation:
     """Deviation of configurations ``q`` (N, dof) from the line (``StraightLine.deviation``, whose
     orientation term already takes the larger of the two closest-point readings a client may use)."""
@@ -146,7 +145,7 @@ def min_singular_values(
 
 def measure_chunked(
     robot: Kinematics,
-    line: StraightLine,
+    line: Path,
     traj: Trajectory,
     position_tolerance: float,
     orientation_tolerance: float,
@@ -157,10 +156,6 @@ def measure_chunked(
     honors the wall-time budget. Every check depends only on its own interval, so the chunks put
     together give the report of one call (to rounding, 1e-16 m at a chunk's last interval)."""
     n = len(traj.times)
-    kwargs = {
-        "position_tolerance": position_tolerance,
-        "orientation_tolerance": orientation_tolerance,
-    }
     parts = []
     for i in range(0, n - 1, MEASURE_CHUNK):
         deadline.check("dense deviation measurement")
@@ -172,7 +167,15 @@ def measure_chunked(
             traj.accelerations[i:j],
             traj.joint_names,
         )
-        parts.append(measure_deviation(robot, line, piece, **kwargs))
+        parts.append(
+            measure_deviation(
+                robot,
+                line,
+                piece,
+                position_tolerance=position_tolerance,
+                orientation_tolerance=orientation_tolerance,
+            )
+        )
     if len(parts) == 1:
         return parts[0]
 
@@ -194,7 +197,7 @@ def measure_chunked(
 
 def interval_excess(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     traj: Trajectory,
     tol_p: float,
     tol_o: float,

@@ -49,7 +49,7 @@ def plan_partial(
 ) -> CartesianResult:
     """``plan(task)``; with ``task.allow_partial``, a failure at ``s`` (unreachable, joint limit,
     branch flip, singularity) gives ``plan`` of the prefix of the line up to where it was last
-    reached (``extra["s_reached"]``, else just before ``s``): ``fraction`` < 1, ``failure`` set, the
+    reached (``failure.s_reached``, else just before ``s``): ``fraction`` < 1, ``failure`` set, the
     knots' ``s`` on the whole line.
 
     ``failure``: that failure already met (``plan(task)`` is not tried again). A prefix that fails
@@ -65,7 +65,7 @@ def plan_partial(
             failure = err
     if failure.s is None:
         raise failure
-    fail_at, reached = float(failure.s), failure.extra.get("s_reached")
+    fail_at, reached = float(failure.s), failure.s_reached
     for _ in range(PARTIAL_TRIES + SHORTEN_TRIES):
         end = float(reached) if reached is not None else 0.95 * fail_at
         if end < MIN_FRACTION:
@@ -79,7 +79,7 @@ def plan_partial(
                 raise
             # The prefix's own s runs over [0, 1]: on the whole line it is end * s.
             fail_at = end * float(err.s)
-            reached = end * float(err.extra["s_reached"]) if "s_reached" in err.extra else None
+            reached = None if err.s_reached is None else end * float(err.s_reached)
         except SHORTER_ERRORS:
             fail_at, reached = end * SHORTEN / 0.95, None
     else:

@@ -1,21 +1,30 @@
-"""Plan a Cartesian task: validate -> ``METHODS[method]`` -> check -> finish -> enforce.
+"""Plan a Cartesian task: the one pipeline of every method.
 
-``plan`` is the one entry point the service calls. Every method validates its own entry (it may be
-called directly), returns a ``CartesianResult`` and, when it did not ``finish`` it (limits, dense
-deviation, singular values), ``plan`` finishes it here, so no trajectory leaves core unchecked.
+    check_start -> METHODS[method] -> finish -> enforce (-> shorter prefix) -> collide -> result
+
+``plan`` is the one entry point the service calls (``/v1/trajectories/cartesian``, every row of
+``/v1/compare``, every LIN/CIRC segment of a program). The start (and a goal given as joints) is
+checked for collisions before any method runs; every method validates its own entry (it may be
+called directly) and returns a ``CartesianResult``; ``plan`` finishes it when the method did not
+(limits, dense deviation, singular values), applies the 200 rule (``check.enforce``), and hands it
+to the collision stage (``core.cartesian.stop``: the continuous check, and with ``allow_partial``
+the stop before a contact, re-planned by the same method). No trajectory leaves core unchecked.
 """
 
 from __future__ import annotations
 
+from functools import partial
+
 from core.cartesian.check import enforce, finish
-from core.cartesian.methods import METHODS
+from core.cartesian.methods import METHODS, Planner
 from core.cartesian.partial import PARTIAL_ERRORS, SHORTER_ERRORS, plan_partial
+from core.cartesian.stop import check_start, collide
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import InputError
 
 
-def plan(task: CartesianTask, method: str) -> CartesianResult:
-    """Plan ``task`` with ``method`` (a name in ``METHODS``); ``InputError`` for any other name."""
+def planner_of(method: str) -> Planner:
+    """The ``METHODS`` entry ``method``; ``InputError`` at ``method`` for any other name."""
     planner = METHODS.get(method)
     if planner is None:
         raise InputError(
@@ -23,23 +32,37 @@ def plan(task: CartesianTask, method: str) -> CartesianResult:
             field=("method",),
             extra={"methods": list(METHODS)},
         )
+    return planner
 
-    def checked(t: CartesianTask) -> CartesianResult:
-        result = planner(t)
-        if result.deviation is None:
-            result = finish(t, result)
-        return enforce(t, result)
 
+def plan(task: CartesianTask, method: str) -> CartesianResult:
+    """Plan ``task`` with ``method`` (a name in ``METHODS``): see the module docstring."""
+    planner = planner_of(method)
+    check_start(task)
+    checked = partial(_checked, planner)
+    return collide(task, planned(task, planner), checked)
+
+
+def planned(task: CartesianTask, planner: Planner) -> CartesianResult:
+    """The method's plan, finished and held to the 200 rule (no collision stage): a partial plan
+    (``allow_partial``) whose prefix breaks the rule before its failure (a rate controller's ticks
+    accelerate hard near a singularity) is planned shorter."""
     result = planner(task)
     if result.deviation is None:
         result = finish(task, result)
     try:
         return enforce(task, result)
     except SHORTER_ERRORS:
-        # A partial plan (allow_partial) whose prefix breaks the limits before its failure (a rate
-        # controller's ticks accelerate hard near a singularity): re-plan a shorter prefix.
         failure = result.failure
         located = isinstance(failure, PARTIAL_ERRORS) and failure.s is not None
-        if not (task.allow_partial and located and failure.field is None):
+        if failure is None or not (task.allow_partial and located and failure.field is None):
             raise
-        return plan_partial(task, checked, failure)
+        return plan_partial(task, partial(_checked, planner), failure)
+
+
+def _checked(planner: Planner, task: CartesianTask) -> CartesianResult:
+    """One planning of ``task`` held to the 200 rule (a prefix of a partial plan)."""
+    result = planner(task)
+    if result.deviation is None:
+        result = finish(task, result)
+    return enforce(task, result)

@@ -14,20 +14,17 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.measure import DeviationReport
-from core.clearance import Clearance
-from core.kinematics import Kinematics
+from core.collisions import ClearanceReport
+from core.errors import PlanningError
+from core.kinematics import Clearance, Kinematics
 from core.path import Path, build_path
+from core.timing import DEFAULT_LAW
 from core.trajectory import Trajectory
 
 DEFAULT_MAX_LINEAR_SPEED = 0.25
 """Tool speed [m/s] used when a request gives neither a duration nor speed limits."""
 DEFAULT_MAX_ANGULAR_SPEED = 1.0
 """Tool angular speed [rad/s] used when a request gives neither a duration nor speed limits."""
-
-
-SPEED_PROFILES = ("trapezoidal", "s_curve")
-"""Path-speed profiles of a Cartesian request: ``trapezoidal`` (the speed-limited trapezoid, or the
-quintic for a fixed duration) or ``s_curve`` (continuous s'', path jerk limited)."""
 
 
 @dataclass(frozen=True)
@@ -63,11 +60,19 @@ class CartesianTask:
         solver: QP solver name for ``resolved_rate_dls``.
         deadline: Wall-time budget.
         path: The path shape (``PathSpec``; default the straight line).
-        speed_profile: ``"trapezoidal"`` or ``"s_curve"`` (``SPEED_PROFILES``).
+        speed_profile: The timing law, a name in ``core.timing.TIMING_LAWS`` (``"trapezoidal"``:
+            the speed-limited trapezoid, or the quintic for a fixed duration; ``"s_curve"``:
+            continuous s'', path jerk limited).
         max_linear_jerk: Tool jerk limit [m/s^3] of the s-curve (None: its default).
         max_angular_jerk: Tool angular jerk limit [rad/s^3] of the s-curve (None: its default).
+        max_linear_acceleration: Tool acceleration limit [m/s^2] (None: 1 m/s^2).
+        max_angular_acceleration: Tool angular acceleration limit [rad/s^2] (None: 2 rad/s^2).
         clearance: The environment's distances (obstacles, self-collision), for the methods that
             avoid collisions (``bounded_deviation_nlp``, ``resolved_rate_dls``); None: no avoidance.
+        collision_check: The collision object every answer is checked with (``core.collisions``:
+            the start before planning, then the returned motion, continuously); the same object as
+            ``clearance`` when the request has an environment, else the robot's self pairs only.
+            None: nothing to check.
     """
 
     robot: Kinematics
@@ -87,10 +92,13 @@ class CartesianTask:
     solver: str = "osqp"
     deadline: Deadline = NO_DEADLINE
     path: PathSpec = PathSpec()
-    speed_profile: str = "trapezoidal"
+    speed_profile: str = DEFAULT_LAW
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
+    max_linear_acceleration: float | None = None
+    max_angular_acceleration: float | None = None
     clearance: Clearance | None = None
+    collision_check: Clearance | None = None
 
     def line(self) -> Path:
         """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);
@@ -107,12 +115,12 @@ class CartesianTask:
 
     def prefix(self, end: float) -> CartesianTask:
         """The task of the path cut at ``end`` in (0, 1], re-parameterized over [0, 1]: the goal is
-        the pose at ``end``; an arc keeps its circle (its interim point becomes the point at
-        ``end / 2``, so the same arc of the same circle is followed)."""
+        the pose at ``end``; a shape given by a circle keeps it (its interim point becomes the
+        point at ``end / 2``, so the same arc of the same circle is followed)."""
         path = self.line()
         T_end = path.pose(end)
         spec = self.path
-        if spec.kind != "line":
+        if spec.interim is not None or spec.center is not None:
             spec = PathSpec(spec.kind, interim=path.pose(0.5 * end)[:3, 3].copy())
         return replace(self, T_goal=T_end, path=spec)
 
@@ -143,6 +151,8 @@ class CartesianResult:
             (K, dof); None for the others.
         diagnostics: Method-specific figures (JSON-serializable).
         failure: The error that ended a partial plan.
+        clearance: How close the returned motion comes to contact (``core.collisions``), None when
+            nothing is checked.
     """
 
     trajectory: Trajectory
@@ -153,4 +163,5 @@ class CartesianResult:
     warnings: tuple[str, ...] = ()
     knots: dict[str, np.ndarray] | None = None
     diagnostics: dict[str, Any] = field(default_factory=dict)
-    failure: Exception | None = None
+    failure: PlanningError | None = None
+    clearance: ClearanceReport | None = None

@@ -6,13 +6,16 @@ A Cartesian method decides the path: joint positions q(s) for s in [0, end] (``e
 planned fraction of a partial plan) and their derivatives dq/ds, d2q/ds2. ``time_path`` decides, in
 one place for every method, how fast s advances; the path itself never changes:
 
+The law is ``TIMING_LAWS[task.speed_profile]`` (``core.timing``; the request's ``speed_profile``
+names it), fed one ``TimingSpec`` (``task_spec``): with the default ``trapezoidal``,
+
 - ``duration`` given: a quintic rest-to-rest s(t) over it (``core.timing.quintic``). Joint speeds
   |dq/ds| s' must hold at every given s; where they do not, ``JointRateLimit`` names the first such
   s and the shortest duration that would hold (``extra["min_duration"]``): a requested duration is
   never stretched. Joint accelerations over their limits only warn (with the duration that avoids it).
 - otherwise: the shortest rest-to-rest s(t) (``core.timing.speed_limited``) under the tool's speed limits
   (``CartesianTask.speeds()``, defaults 0.25 m/s and 1 rad/s) and accelerations
-  (``DEFAULT_LINEAR_ACCELERATION`` 1 m/s^2, ``DEFAULT_ANGULAR_ACCELERATION`` 2 rad/s^2), and under
+  (``max_linear_acceleration``, ``max_angular_acceleration``; defaults 1 m/s^2 and 2 rad/s^2), and under
   the joints' limits: |dq/ds| s' <= v_max caps s'; with d2q/ds2, half of each joint's acceleration
   limit goes to the curvature term |d2q/ds2| s'^2 (another cap on s') and half to |dq/ds| |s''|
   (a bound on s'' per interval), so |q''| <= a_max at the grid points. The tool slows down only
@@ -20,7 +23,7 @@ one place for every method, how fast s advances; the path itself never changes:
   ``MIN_SPEED_FRACTION`` of the requested path speed is a Type II ``Singularity``: no reasonable
   slow-down keeps the joints within their limits.
 
-``speed_profile="s_curve"`` swaps both laws for the jerk-limited S-curve (``TIMING_LAWS["s_curve"]``:
+``speed_profile="s_curve"`` is the jerk-limited S-curve (``TIMING_LAWS["s_curve"]``:
 continuous s'', path jerk within the tool jerk limits): with ``duration`` the S-curve of exactly that
 duration; otherwise the shortest S-curve under the tool limits and the smallest joint caps on s' and
 |s''| along the path (one bound each, so it is slower than the trapezoid where a joint cap binds
@@ -33,18 +36,18 @@ accelerations d2q/ds2 s'^2 + dq/ds s'' by the chain rule, at rest at both ends.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from core.cartesian.joint_limits import LIMIT_SLACK
 from core.cartesian.task import CartesianTask
 from core.errors import Infeasible, InputError, JointRateLimit, Singularity
+from core.limits import LIMIT_SLACK
 from core.path import Path
-from core.timing import TIMING_LAWS, Profile, TimingSpec, speed_limited_law
+from core.timing import TIMING_LAWS, PathLaw, TimingLaw, TimingSpec
 from core.timing.caps import joint_speed_cap
-from core.timing.quintic import QUINTIC_PEAK_VELOCITY, QuinticTiming
-from core.trajectory import Trajectory, sample_times
+from core.timing.quintic import QUINTIC_PEAK_VELOCITY
+from core.trajectory import MAX_DURATION, Trajectory, sample_times
 
 MIN_SPEED_FRACTION = 1e-3
 """Slowest the joint limits may make the tool, as a share of the requested path speed; below it the
@@ -52,8 +55,6 @@ line is a Type II singularity ("no finite slow-down"): the tool would crawl at <
 ACCELERATION_SHARE = 0.5
 """Share of each joint's acceleration limit given to the curvature term d2q/ds2 s'^2; the rest
 bounds dq/ds s''."""
-MAX_DURATION = 1e5
-"""Longest timed line [s] (the API's bound on ``duration``)."""
 _CAP_MARGIN = 1.0 - 1e-6
 """Caps are applied slightly tightened so rounding never lands a sample over a limit."""
 
@@ -69,7 +70,7 @@ class PathTiming:
         slowdown: Smallest ratio of the allowed path speed to the requested one (1.0: none).
     """
 
-    profile: Profile
+    profile: PathLaw
     end: float
     warnings: tuple[str, ...]
     slowdown: float = 1.0
@@ -149,46 +150,49 @@ def time_path(
             s=float(s[i]),
             extra={"min_speed_fraction": MIN_SPEED_FRACTION},
         )
-    spec = TimingSpec(
-        length=line.length,
-        angle=line.angle,
-        max_linear_speed=linear,
-        max_angular_speed=angular,
+    spec = replace(
+        task_spec(task, line),
         s=s,
         cap=cap * _CAP_MARGIN,
         acceleration_cap=acc_cap,
         end=float(s[-1]),
-        max_linear_jerk=task.max_linear_jerk,
-        max_angular_jerk=task.max_angular_jerk,
     )
-    if task.speed_profile == "s_curve":
-        profile = TIMING_LAWS["s_curve"](spec)
-        sdot = np.asarray(profile(profile.time_at(s), 1), dtype=float)
-    else:
-        grid_timing = speed_limited_law(spec)
-        profile, sdot = grid_timing, grid_timing.sdot
+    profile = law(task)(spec)
+    sdot = np.asarray(profile(profile.time_at(s), 1), dtype=float)
     if not profile.duration <= MAX_DURATION:
         raise Infeasible(
             f"the timed line would last {profile.duration:.4g} s, over the {MAX_DURATION:g} s limit",
             s=float(s[-1]),
         )
-    # Where a joint cap sets the speed (the profile rides on it) below the requested path speed.
+    warnings, slowdown = _slowdowns(s, sdot, nominal, cap, cap_v, cap_a)
+    return PathTiming(profile, float(s[-1]), warnings, slowdown)
+
+
+def _slowdowns(
+    s: np.ndarray,
+    sdot: np.ndarray,
+    nominal: float,
+    cap: np.ndarray,
+    cap_v: np.ndarray,
+    cap_a: np.ndarray,
+) -> tuple[tuple[str, ...], float]:
+    """Where a joint cap sets the path speed (the profile rides on it) below the requested one:
+    a warning per kind of limit, and the smallest ratio of the allowed speed to the requested."""
     active = (sdot >= cap * _CAP_MARGIN * (1.0 - 1e-3)) & (cap < nominal * (1.0 - 1e-6))
     active[0] = active[-1] = False
+    if not (np.any(active) and np.isfinite(nominal)):
+        return (), 1.0
     warnings = []
-    slowdown = 1.0
-    if np.any(active) and np.isfinite(nominal):
-        slowdown = float(cap[active].min() / nominal)
-        for name, c in (("velocity", cap_v), ("acceleration", cap_a)):
-            binds = active & (c <= cap)
-            if np.any(binds):
-                k = int(np.argmin(np.where(binds, c, np.inf)))
-                warnings.append(
-                    f"joint {name} limits slow the tool between s={s[binds][0]:.3f} and "
-                    f"s={s[binds][-1]:.3f} (to {c[k] / nominal:.1%} of the requested speed at "
-                    f"s={s[k]:.3f}); the path is unchanged"
-                )
-    return PathTiming(profile, float(s[-1]), tuple(warnings), slowdown)
+    for name, c in (("velocity", cap_v), ("acceleration", cap_a)):
+        binds = active & (c <= cap)
+        if np.any(binds):
+            k = int(np.argmin(np.where(binds, c, np.inf)))
+            warnings.append(
+                f"joint {name} limits slow the tool between s={s[binds][0]:.3f} and "
+                f"s={s[binds][-1]:.3f} (to {c[k] / nominal:.1%} of the requested speed at "
+                f"s={s[k]:.3f}); the path is unchanged"
+            )
+    return tuple(warnings), float(cap[active].min() / nominal)
 
 
 def _tool_cap(tool_rate: np.ndarray, linear: float | None, angular: float | None) -> np.ndarray:
@@ -202,39 +206,45 @@ def _tool_cap(tool_rate: np.ndarray, linear: float | None, angular: float | None
     return cap
 
 
-def fixed_profile(task: CartesianTask, line: Path, T: float, end: float = 1.0) -> Profile:
-    """s(t) from 0 to ``end`` over exactly ``T`` [s]: the quintic, or with ``speed_profile``
-    ``"s_curve"`` the canonical S-curve (its jerk within the task's jerk limits, else
-    ``Infeasible`` naming the shortest duration)."""
-    if task.speed_profile == "s_curve":
-        spec = TimingSpec(
-            length=line.length,
-            angle=line.angle,
-            duration=T,
-            end=end,
-            max_linear_jerk=task.max_linear_jerk,
-            max_angular_jerk=task.max_angular_jerk,
+def law(task: CartesianTask) -> TimingLaw:
+    """The task's timing law: ``TIMING_LAWS[task.speed_profile]`` (``InputError`` at
+    ``speed_profile`` for any other name)."""
+    found = TIMING_LAWS.get(task.speed_profile)
+    if found is None:
+        raise InputError(
+            f"speed_profile must be one of {', '.join(TIMING_LAWS)}", field=("speed_profile",)
         )
-        return TIMING_LAWS["s_curve"](spec)
-    return QuinticTiming(T, end)
+    return found
 
 
-def nominal_profile(task: CartesianTask, line: Path) -> Profile:
-    """s(t) from 0 to 1 under the task's duration or tool limits alone (no joint caps): what the
-    rate controllers track. Quintic or speed-limited trapezoid; the S-curve with ``s_curve``."""
-    if task.duration is not None:
-        return fixed_profile(task, line, float(task.duration))
+def task_spec(task: CartesianTask, line: Path) -> TimingSpec:
+    """The ``TimingSpec`` of the task's path: its extent, the tool's speed (defaults when nothing
+    times the motion), acceleration and jerk limits, and the task's duration."""
     linear, angular = task.speeds()
-    spec = TimingSpec(
-        line.length,
-        line.angle,
-        max_linear_speed=linear,
-        max_angular_speed=angular,
+    return TimingSpec(
+        length=line.length,
+        angle=line.angle,
+        duration=task.duration,
+        max_linear_speed=None if task.duration is not None else linear,
+        max_angular_speed=None if task.duration is not None else angular,
         max_linear_jerk=task.max_linear_jerk,
         max_angular_jerk=task.max_angular_jerk,
+        max_linear_acceleration=task.max_linear_acceleration,
+        max_angular_acceleration=task.max_angular_acceleration,
     )
-    law = "s_curve" if task.speed_profile == "s_curve" else "speed_limited"
-    return TIMING_LAWS[law](spec)
+
+
+def fixed_profile(task: CartesianTask, line: Path, T: float, end: float = 1.0) -> PathLaw:
+    """s(t) from 0 to ``end`` over exactly ``T`` [s] by the task's law (``trapezoidal``: the
+    quintic; ``s_curve``: the canonical S-curve, its jerk within the task's jerk limits, else
+    ``Infeasible`` naming the shortest duration)."""
+    return law(task)(replace(task_spec(task, line), duration=T, end=end))
+
+
+def nominal_profile(task: CartesianTask, line: Path) -> PathLaw:
+    """s(t) from 0 to 1 under the task's duration or tool limits alone (no joint caps): what the
+    rate controllers track (``TIMING_LAWS[task.speed_profile]``)."""
+    return law(task)(task_spec(task, line))
 
 
 def _fixed_duration(

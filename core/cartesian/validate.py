@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.cartesian.joint_limits import inside, worst_joint
-from core.cartesian.task import SPEED_PROFILES, CartesianTask
+from core.cartesian.task import CartesianTask
 from core.errors import (
     InputError,
     JointLimit,
 )
+from core.limits import inside, worst_joint
 from core.path import Path
+from core.timing import TIMING_LAWS
 
 
 def validated_line(task: CartesianTask) -> Path:
@@ -27,12 +28,14 @@ def validated_line(task: CartesianTask) -> Path:
         (("max_angular_speed",), task.max_angular_speed),
         (("max_linear_jerk",), task.max_linear_jerk),
         (("max_angular_jerk",), task.max_angular_jerk),
+        (("max_linear_acceleration",), task.max_linear_acceleration),
+        (("max_angular_acceleration",), task.max_angular_acceleration),
     ):
         if value is not None and not (np.isfinite(value) and value > 0.0):
             raise InputError(f"{'.'.join(where)} must be a finite number > 0", field=where)
-    if task.speed_profile not in SPEED_PROFILES:
+    if task.speed_profile not in TIMING_LAWS:
         raise InputError(
-            f"speed_profile must be one of {', '.join(SPEED_PROFILES)}", field=("speed_profile",)
+            f"speed_profile must be one of {', '.join(TIMING_LAWS)}", field=("speed_profile",)
         )
     for name, q, s in (("start", task.q_start, 0.0), ("goal", task.q_goal, 1.0)):
         if q is None:

@@ -37,7 +37,6 @@ from core.cartesian.ik_on_path import (
     residual,
     solve_ik,
 )
-from core.cartesian.joint_limits import inside, worst_joint
 from core.cartesian.path_rates import PathRates, path_rates
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
@@ -48,13 +47,10 @@ from core.errors import (
     Singularity,
     Unreachable,
 )
-from core.kinematics import task_rows
-from core.path.line import StraightLine
+from core.kinematics import SINGULAR_VALUE_THRESHOLD, task_rows
+from core.limits import inside, worst_joint
+from core.path.base import Path
 
-SINGULAR_VALUE_THRESHOLD = 1e-3
-"""Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a point is
-singular. At 1e-3 a joint turning at 1 rad/s moves the tool by at most 1 mm/s in the weakest
-direction: following the line there needs joint rates ~100 times any arm's limits."""
 STEP_PER_TOLERANCE = 10.0
 """Walk step: this many position tolerances [m] of travel, or orientation tolerances [rad]."""
 MIN_INTERVALS = 50
@@ -77,7 +73,7 @@ _EXACT = 10.0 * IK_SOLVE_TOLERANCE
 TWO_PI = 2.0 * np.pi
 
 
-def check_grid(task: CartesianTask, line: StraightLine) -> np.ndarray:
+def check_grid(task: CartesianTask, line: Path) -> np.ndarray:
     """Equally spaced s of the walk: a step of ``STEP_PER_TOLERANCE`` tolerances of travel."""
     n = max(
         line.length / (STEP_PER_TOLERANCE * task.position_tolerance),
@@ -127,7 +123,7 @@ class Seed(NamedTuple):
 class Walker:
     """One walk's context: the robot, the line, the step checks and the IK call count."""
 
-    def __init__(self, task: CartesianTask, line: StraightLine, nominal_speed: float) -> None:
+    def __init__(self, task: CartesianTask, line: Path, nominal_speed: float) -> None:
         self.task, self.robot, self.line = task, task.robot, line
         self.floor = MIN_SPEED_FRACTION * nominal_speed if np.isfinite(nominal_speed) else 0.0
         self.lo, self.hi = self.robot.position_limits[:, 0], self.robot.position_limits[:, 1]
@@ -165,10 +161,11 @@ class Walker:
             return False
         if residual <= _EXACT:
             return True
-        sigma = path_rates(self.robot, self.line, q[None], second_order=False).sigma[0]
+        # sigma does not depend on s: skip the closest-point search
+        sigma = path_rates(self.robot, self.line, q[None], False, s=np.zeros(1)).sigma[0]
         return bool(sigma >= SINGULAR_VALUE_THRESHOLD)
 
-    def on_branch(self, q: np.ndarray, seed: Seed) -> bool:
+    def on_branch(self, q: np.ndarray, seed: Seed, s: float | None = None) -> bool:
         """Whether ``q`` continues the branch from ``seed``: within ``STRICT_BRANCH`` of the
         Jacobian's prediction (plus its slack); or, for a step of at most 2 ``MIN_STEP``,
         within what the larger of the rates at both ends allows (the mean-value bound, which holds
@@ -178,7 +175,8 @@ class Walker:
             return True
         if abs(seed.h) > 2.0 * MIN_STEP:
             return False
-        rates = path_rates(self.robot, self.line, q[None], second_order=False)
+        at = None if s is None else np.array([s])
+        rates = path_rates(self.robot, self.line, q[None], second_order=False, s=at)
         ratio, slack = STRICT_BRANCH
         bound = (1.0 + ratio) * np.maximum(np.abs(step), np.abs(rates.dq_ds[0] * seed.h))
         return bool(np.all(np.abs(q - seed.q) <= bound + slack))
@@ -197,7 +195,7 @@ class Walker:
                 if not self.reached(q, ok, res):
                     continue
                 q = self.unwrap(q, pred, T)
-                if self.on_branch(q, seed):
+                if self.on_branch(q, seed, s):
                     if not self.inside(q):
                         j = worst_joint(q, self.robot.position_limits)
                         return JointLimit(
@@ -241,14 +239,15 @@ class Walker:
         not (``Unreachable``, ``JointLimit``, ``BranchFlip`` also when it would jump)."""
         pred = seed.q + seed.dq * seed.h
         self.ik_calls += 1
-        found = on_label(self.robot, T, s, str(self.label), pred)
-        if isinstance(found, PlanningError):
-            return found
+        try:
+            found = on_label(self.robot, T, s, str(self.label), pred)
+        except PlanningError as err:
+            return err
         q = self.unwrap(found, pred, T)
-        if not self.on_branch(q, seed):
+        if not self.on_branch(q, seed, s):
             # at a singular point (the workspace's edge) the rates cannot predict the step: the
             # point is taken, and its check reports the singularity (then the edge, exactly)
-            sigma = path_rates(self.robot, self.line, q[None], second_order=False).sigma[0]
+            sigma = path_rates(self.robot, self.line, q[None], False, s=np.zeros(1)).sigma[0]
             if sigma >= SINGULAR_VALUE_THRESHOLD:
                 return BranchFlip(
                     f"the solution in the start's configuration ({self.label}) at s={s:.4f} is "
@@ -321,8 +320,8 @@ class Walker:
         )
 
     def check_point(self, s: float, q: np.ndarray) -> PathRates | PlanningError:
-        """Rates at ``q`` and the Type II checks."""
-        rates = path_rates(self.robot, self.line, q[None], second_order=False)
+        """Rates at ``q`` (the path's point ``s``) and the Type II checks."""
+        rates = path_rates(self.robot, self.line, q[None], second_order=False, s=np.array([s]))
         sigma = float(rates.sigma[0])
         if sigma < SINGULAR_VALUE_THRESHOLD:
             return Singularity(
@@ -343,7 +342,7 @@ class Walker:
         return rates
 
 
-def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None = None) -> LineWalk:
+def walk_line(task: CartesianTask, line: Path, grid: np.ndarray | None = None) -> LineWalk:
     """IK along ``line`` from ``task.q_start`` (see the module docstring); stops at the first failure.
 
     Args:
@@ -394,5 +393,5 @@ def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None =
         if len(off):
             failure = label_change(float(s_arr[off[0]]), w.label)
             positions, s_arr = positions[: off[0]], s_arr[: off[0]]
-    rates = path_rates(task.robot, line, positions, deadline=task.deadline)
+    rates = path_rates(task.robot, line, positions, deadline=task.deadline, s=s_arr)
     return LineWalk(s_arr, positions, rates, failure, w.ik_calls)

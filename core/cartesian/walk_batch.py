@@ -15,11 +15,12 @@ from core.cartesian.ik_on_path import follows
 from core.cartesian.path_rates import path_rates
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
-from core.cartesian.walk import MAX_JOINT_STEP, SINGULAR_VALUE_THRESHOLD, LineWalk, check_grid
-from core.path.line import StraightLine
+from core.cartesian.walk import MAX_JOINT_STEP, LineWalk, check_grid
+from core.kinematics import SINGULAR_VALUE_THRESHOLD
+from core.path.base import Path
 
 
-def batch_walk(task: CartesianTask, line: StraightLine) -> LineWalk | None:
+def batch_walk(task: CartesianTask, line: Path) -> LineWalk | None:
     """``walk_line``'s result on its default grid when the whole line passes (see the module
     docstring), else None. Only for robots with a label and task space ``pose`` (the batched
     analytic IK); others get None at once."""
@@ -33,7 +34,7 @@ def batch_walk(task: CartesianTask, line: StraightLine) -> LineWalk | None:
     if not np.all(path.within_limits):
         return None
     positions = np.vstack([q_start, path.positions])
-    rates = path_rates(robot, line, positions, deadline=task.deadline)
+    rates = path_rates(robot, line, positions, deadline=task.deadline, s=grid)
     if np.any(rates.sigma < SINGULAR_VALUE_THRESHOLD):
         return None
     speed = nominal_path_speed(task, line)

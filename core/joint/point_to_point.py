@@ -13,10 +13,12 @@ from typing import NamedTuple
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
+from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import InputError
 from core.joint.effort import TimeScaled, shortest_for_effort
 from core.joint.motion import PointToPoint, State
 from core.joint.profiles import PROFILES
+from core.kinematics import Clearance
 from core.limits import JointLimits, check_boundary_rates, check_positions, check_rates
 from core.timing.path_constraints import Effort
 from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names, sample_times
@@ -29,11 +31,13 @@ NO_LIMITS = JointLimits()
 
 class JointPlan(NamedTuple):
     """A planned move: the sampled ``trajectory`` (with the profile's exact peaks), the
-    ``profile`` (sample it anywhere in ``[0, T]``) and human-readable ``warnings``."""
+    ``profile`` (sample it anywhere in ``[0, T]``), human-readable ``warnings`` and the collision
+    check's ``clearance`` (None: nothing checked)."""
 
     trajectory: Trajectory
     profile: Profile
     warnings: tuple[str, ...]
+    clearance: ClearanceReport | None = None
 
 
 def plan_joint(
@@ -48,6 +52,7 @@ def plan_joint(
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
     effort: Effort | None = None,
+    collision_check: Clearance | None = None,
 ) -> JointPlan:
     """Plan and sample a point-to-point move: the one core call of the joint-space route.
 
@@ -60,6 +65,9 @@ def plan_joint(
     the sampling (``TimeBudgetExceeded``). With ``effort`` (no ``duration``), the shortest
     duration whose inverse-dynamics torque keeps the effort limits too
     (``core.joint.effort.shortest_for_effort``).
+    With ``collision_check`` the start and goal are
+    checked before planning and the sampled motion continuously after it (``core.collisions``:
+    ``Collision`` at the first contact).
     """
     limits = limits or NO_LIMITS
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
@@ -75,6 +83,8 @@ def plan_joint(
             "limits.effort applies when the service chooses the duration (give no duration)",
             field=("limits", "effort"),
         )
+    ends = (End("start", motion.start.positions, 0.0), End("goal", motion.goal.positions))
+    check_ends(collision_check, ends)
     profile = spec.timed(motion, limits, duration, names)
     if effort is not None:
         base = profile
@@ -92,9 +102,14 @@ def plan_joint(
     trajectory = Trajectory.from_profile(profile, times, names)
     deadline.check("joint profile sampling")
     if limits.velocity is not None or limits.acceleration is not None or limits.jerk is not None:
-        check_rates(**spec.held(trajectory.peaks), limits=limits, joint_names=names)
+        held = spec.held(profile.peaks())
+        check_rates(
+            held["peak_velocity"], held["peak_acceleration"], limits, names,
+            peak_jerk=held["peak_jerk"],
+        )  # fmt: skip
     check_positions(trajectory.positions, limits, names, times=times)
-    return JointPlan(trajectory, profile, spec.warnings(motion))
+    report = checked(trajectory, collision_check)
+    return JointPlan(trajectory, profile, spec.warnings(motion), report)
 
 
 def _check_boundaries(kind: str, m: PointToPoint, limits: JointLimits, names: tuple) -> None:

@@ -19,11 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
+from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import InputError, JointLimit, TooLarge
 from core.joint.blended_path import BlendedPath
 from core.joint.spline_path import SplinePath
-from core.kinematics import Dynamics
-from core.limits import JointLimits, check_positions, outside_position_limits
+from core.kinematics import Clearance, Dynamics
+from core.limits import JointLimits, check_positions, outside
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import Effort, PathLimits, ToolSpeed
 from core.timing.topp import TimeOptimal, time_optimal
@@ -68,6 +69,7 @@ class RetimePlan:
     path: JointPath
     path_length: float
     peak_effort: np.ndarray | None
+    clearance: ClearanceReport | None = None
 
 
 def check_waypoints(waypoints: object, limits: JointLimits, names: tuple[str, ...]) -> np.ndarray:
@@ -111,12 +113,15 @@ def plan_retime(
     max_points: int = MAX_POINTS,
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
+    collision_check: Clearance | None = None,
 ) -> RetimePlan:
     """Time the ``path`` through ``waypoints`` at the optimum under ``limits`` (velocity and
     acceleration needed), ``tool`` speeds and ``effort``; ``dynamics`` with ``gravity`` [m/s^2]
     (base frame) measure ``peak_effort``. ``InputError`` names the field at fault; ``JointLimit``
     the ``s`` where a spline leaves the position limits; ``Infeasible`` where no motion keeps the
-    limits (or gravity alone exceeds an effort limit)."""
+    limits (or gravity alone exceeds an effort limit). With ``collision_check`` the first and last
+    waypoints are checked before timing and the timed motion continuously after it
+    (``core.collisions``: ``Collision`` at the first contact)."""
     try:
         shape = np.shape(np.asarray(waypoints, dtype=float))
     except (TypeError, ValueError):
@@ -131,6 +136,7 @@ def plan_retime(
         missing = "velocity" if limits.velocity is None else "acceleration"
         raise InputError(f"limits.{missing} is required without a robot", field=("limits", missing))
     q = check_waypoints(waypoints, limits, names)
+    check_ends(collision_check, (End("start", q[0], 0.0), End("goal", q[-1])))
     geometry = PATHS[path](q, float(max_deviation))
     _check_positions(geometry, limits, names)
     timing = time_optimal(
@@ -159,7 +165,9 @@ def plan_retime(
             np.vstack([q_t, q_d]), np.vstack([qd_t, qd_d]), np.vstack([qdd_t, qdd_d]), g
         )
         peak_effort = np.abs(tau).max(axis=0)
-    return RetimePlan(trajectory, timing, geometry, _arc_length(geometry, timing), peak_effort)
+    report = checked(trajectory, collision_check)
+    length = _arc_length(geometry, timing)
+    return RetimePlan(trajectory, timing, geometry, length, peak_effort, report)
 
 
 def _times(
@@ -205,7 +213,7 @@ def _check_positions(path: JointPath, limits: JointLimits, names: tuple[str, ...
     b = np.unique(np.asarray(path.breakpoints(), dtype=float))
     f = np.arange(1, POSITION_CHECKS) / POSITION_CHECKS
     s = np.concatenate([(b[:-1, None] + np.diff(b)[:, None] * f).ravel(), b])
-    bad = outside_position_limits(path(s), limits.position)
+    bad = outside(path(s), limits.position)
     if bad.any():
         k, j = (int(v) for v in np.argwhere(bad)[0])
         frac = float(s[k] / path.length)

@@ -20,9 +20,11 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from core.budget import NO_DEADLINE, Deadline
+from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
 from core.joint import durations
 from core.joint.effort import shortest_for_effort
+from core.kinematics import Clearance
 from core.limits import (
     JointLimits,
     check_boundary_rates,
@@ -148,15 +150,20 @@ class SplineProfile:
         vel, acc = self.segment_peaks()
         return Peaks(vel.max(axis=0), acc.max(axis=0), np.abs(6.0 * self.spline.c[0]).max(axis=0))
 
+    def switch_times(self) -> np.ndarray:
+        """The inner knot times [s], where the jerk steps."""
+        return self.knot_times[1:-1].copy()
+
 
 class SplinePlan(NamedTuple):
     """A planned spline: the sampled ``trajectory``, the ``profile``, its ``knot_times`` [s]
-    ``(n + 1,)`` and human-readable ``warnings``."""
+    ``(n + 1,)``, human-readable ``warnings`` and the collision check's ``clearance``."""
 
     trajectory: Trajectory
     profile: SplineProfile
     knot_times: np.ndarray
     warnings: tuple[str, ...]
+    clearance: ClearanceReport | None = None
 
 
 ROUNDING_MARGIN = 1e-12
@@ -224,10 +231,10 @@ def allocate_times(
     homogeneous = boundary != "clamped" or not (np.any(start_velocity) or np.any(goal_velocity))
     if homogeneous:
         # 1e-12 longer: the exact scaling meets the binding limit, rounding may put it an ulp over
-        total = durations.clamp_duration(
+        scaled_total = durations.clamp_duration(
             best_total * (1.0 + ROUNDING_MARGIN) if np.isfinite(best_total) else 0.0, "this spline"
         )
-        return np.concatenate([[0.0], np.cumsum(best * (total / best.sum()))])
+        return np.concatenate([[0.0], np.cumsum(best * (scaled_total / best.sum()))])
 
     def excess(totals: np.ndarray) -> np.ndarray:
         scaled = (best * (d / best.sum()) for d in totals)
@@ -235,7 +242,7 @@ def allocate_times(
 
     lower = max(durations.MIN_DURATION, best_total / 4.0)
     upper = min(durations.MAX_DURATION, best_total * 4.0)
-    total = (
+    total: float | None = (
         durations.shortest_feasible(excess, lower, upper, grid_points=25) if lower < upper else None
     )
     if total is None or total == lower:  # nothing near the estimate, or maybe shorter below it
@@ -262,6 +269,7 @@ def plan_spline(
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
     effort: Effort | None = None,
+    collision_check: Clearance | None = None,
 ) -> SplinePlan:
     """Plan and sample a spline through ``waypoints`` ``(n + 1, dof)``: the one core call of the
     spline route.
@@ -269,7 +277,9 @@ def plan_spline(
     Without ``times``, knot times from ``allocate_times`` (with ``effort``, scaled until the
     inverse-dynamics torque keeps the effort limits too); with them, a plan over known limits is
     ``JointRateLimit``. Waypoints and every sample must stay within ``limits.position``
-    (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise).
+    (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise). With
+    ``collision_check``, the first and last waypoints are checked before planning and the sampled
+    motion continuously after it (``core.collisions``).
     """
     limits = limits or JointLimits()
     q = np.asarray(waypoints, dtype=float)
@@ -298,6 +308,7 @@ def plan_spline(
             "limits.effort applies when the service allocates the times (give no times)",
             field=("limits", "effort"),
         )
+    check_ends(collision_check, (End("start", q[0], 0.0), End("goal", q[-1])))
     if times is None:
         knots = allocate_times(q, boundary, limits, v0, v1, deadline)
         profile = SplineProfile(knots, q, boundary, v0, v1)
@@ -323,8 +334,8 @@ def plan_spline(
             return f"; times allocated within the limits would take {allocated:.6g} s"
 
         if limits.velocity is not None or limits.acceleration is not None:
-            peaks = (peak.max(axis=0) for peak in profile.segment_peaks())
-            check_rates(*peaks, limits, names, hint=hint)
+            vel, acc = (peak.max(axis=0) for peak in profile.segment_peaks())
+            check_rates(vel, acc, limits, names, hint=hint)
     trajectory = Trajectory.from_profile(
         profile, sample_times(profile.duration, sample_period, samples, max_points), names
     )
@@ -332,7 +343,8 @@ def plan_spline(
         check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
     check_positions(trajectory.positions, limits, names, times=trajectory.times)
     warnings = () if not np.any(trajectory.velocities[-1]) else (durations.NONZERO_END_VELOCITY,)
-    return SplinePlan(trajectory, profile, knots, warnings)
+    report = checked(trajectory, collision_check)
+    return SplinePlan(trajectory, profile, knots, warnings, report)
 
 
 def _knot_times(times: object, count: int) -> np.ndarray:

@@ -1,112 +1,145 @@
-"""A program chunk's timing inputs and result, shared by the two chunk timings.
+"""A program chunk's joint path and its timed motion.
 
-``ChunkInput`` is one rest-to-rest stretch (dense joint samples, tool poses, scaled limits);
-``ChunkTiming`` its timed law. ``core.program.timing.time_chunk`` (time-optimal, quintic s(t)) and
-``core.program.s_curve.s_curve_chunk`` (jerk-limited s(t)) both produce it.
+``ChunkPath`` is the geometric joint path of one rest-to-rest stretch (segments joined by blends):
+q(s) through its dense joint samples, s in [0, 1] its normalized joint-space arc length (so dq/ds
+is continuous across pieces that meet with a continuous tangent), a C2 cubic spline
+(``core.program.geometry.smooth``). It implements ``core.timing.joint_path.JointPath``: any
+path timing law of ``core.timing.TIMING_LAWS`` times it.
+
+``ChunkTiming`` is the chunk timed by such a law: ``sample(t)`` gives q, q', q'' as the exact
+derivatives of q(s(t)) (``core.timing.path_profile.joint_motion``), ``switch_times`` where a
+derivative up to the jerk may step (the law's own switches: the program returns a point there),
+and ``peaks`` the largest |q'|, |q''|, |q'''| of the motion (a dense grid, refined around its
+highest values by golden-section search, so the peak is not under-reported between grid points).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
+from core.program.geometry.smooth import smooth_spline
+from core.timing.path_profile import PathLaw, Stretched, dense_times, joint_motion
 from core.trajectory import Peaks
 
-ACCELERATION_SHARE = 0.5
 CHECKS_PER_INTERVAL = 10
-CAP_MARGIN = 0.98
-"""Caps are applied this much tightened: the spline through the timed samples may overshoot a bit."""
-TINY = 1e-12
+"""Grid points per knot interval of the peak search."""
+REFINED = 3
+"""Highest grid values per joint and quantity refined by golden-section search."""
+_GOLDEN = 0.5 * (np.sqrt(5.0) - 1.0)
+_GOLDEN_STEPS = 30
 
 
-@dataclass(frozen=True)
-class ChunkInput:
-    """Samples of a chunk's path.
+class ChunkPath:
+    """q(s) for s in [0, 1] through ``q`` ``(K, dof)`` (at least two distinct samples): see the
+    module docstring. ``knots``: the samples' s ``(K,)``."""
 
-    Attributes:
-        q: Joint positions (K, dof).
-        T: Tool poses (K, 4, 4).
-        v_max: Joint velocity limits (K, dof) [rad/s] at each sample (scaled per segment).
-        a_max: Joint acceleration limits (K, dof) [rad/s^2].
-        tool_speed: Linear and angular tool speed limits (K, 2) [m/s, rad/s] (inf: none).
-        tool_acceleration: Linear and angular tool acceleration limits (K, 2) (inf: none).
-        jerk: Tool jerk limits [m/s^3, rad/s^3] of an S-curve chunk (``_s_curve``), else None.
-    """
+    length = 1.0
 
-    q: np.ndarray
-    T: np.ndarray
-    v_max: np.ndarray
-    a_max: np.ndarray
-    tool_speed: np.ndarray
-    tool_acceleration: np.ndarray
-    jerk: tuple[float, float] | None = None
+    def __init__(self, q: np.ndarray) -> None:
+        q = np.asarray(q, dtype=float)
+        step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+        lam = np.concatenate([[0.0], np.cumsum(step)])
+        self.knots = lam / lam[-1]
+        self.samples = q
+        self.dof = int(q.shape[1])
+        self._spline = smooth_spline(self.knots, q)
+
+    def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
+        """q (order 0) or d^n q / ds^n (order n <= 3) at ``s`` ``(N,)``: ``(N, dof)``."""
+        s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+        return np.asarray(self._spline(s, order), dtype=float)
+
+    def breakpoints(self) -> np.ndarray:
+        """The samples' s (the spline's knots: its third derivative steps there)."""
+        return self.knots.copy()
 
 
 @dataclass(frozen=True)
 class ChunkTiming:
-    """The timed chunk: ``sample(t)`` for t in [0, duration].
+    """A chunk timed by a path law (see the module docstring).
 
     Attributes:
-        knot_times: Time [s] of each input sample (K,), from 0 to ``duration``.
-        duration: Length of the chunk [s].
-        stretch: Factor the time-optimal timing was stretched by after the dense check (>= 1).
-        law: s(tau) in the unstretched time tau = t / stretch (``law(tau, order)``): a quintic
-            spline, or an ``SCurveTiming``.
-        path: q(s), a C2 cubic spline through the samples.
+        path: The chunk's joint path.
+        law: s(t) from 0 to 1, rest to rest.
+        knot_times: Time [s] of each of the path's samples ``(K,)``, from 0 to ``duration``.
     """
 
+    path: ChunkPath
+    law: PathLaw
     knot_times: np.ndarray
-    duration: float
-    stretch: float
-    law: Callable[..., np.ndarray]
-    path: CubicSpline
+
+    @classmethod
+    def of(cls, path: ChunkPath, law: PathLaw) -> ChunkTiming:
+        t = np.asarray(law.time_at(path.knots), dtype=float)
+        t[0], t[-1] = 0.0, law.duration
+        return cls(path, law, t)
+
+    @property
+    def duration(self) -> float:
+        return float(self.law.duration)
+
+    @property
+    def stretch(self) -> float:
+        """The uniform stretch the law's dense check applied (1.0: none)."""
+        return self.law.stretch if isinstance(self.law, Stretched) else 1.0
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions, velocities, accelerations (N, dof) at times ``t`` (N,) [s]."""
-        tau = np.asarray(t, dtype=float) / self.stretch
-        return evaluate(self.law, self.path, tau, self.duration / self.stretch, self.stretch)
+        """Positions, velocities, accelerations ``(N, dof)`` at times ``t`` ``(N,)`` [s]."""
+        q, qd, qdd = joint_motion(self.path, self.law, np.asarray(t, dtype=float))
+        return q, qd, qdd
+
+    def slower(self, factor: float) -> ChunkTiming:
+        """The same chunk run ``factor`` (>= 1) times slower."""
+        law = self.law
+        inner, k = (law.law, law.stretch) if isinstance(law, Stretched) else (law, 1.0)
+        return ChunkTiming(self.path, Stretched(inner, k * factor), self.knot_times * factor)
+
+    def switch_times(self) -> np.ndarray:
+        """Times [s] inside the chunk where q(t) may not be smooth (the law's switches)."""
+        return np.asarray(self.law.switch_times(), dtype=float)
+
+    def ends(self) -> np.ndarray:
+        """``(2, dof)``: the first and last joint samples, exactly."""
+        return self.path.samples[[0, -1]]
 
     def peaks(self) -> Peaks:
-        """Largest speed, acceleration and jerk per joint of the analytic q(t) = P(s(t)), over a
-        dense grid (``CHECKS_PER_INTERVAL`` per knot interval). The jerk is
-        P3 s'^3 + 3 P2 s' s'' + P1 s''' (Pn: n-th derivative of the path spline); P3 is constant
-        on each cubic piece and steps at its knots, so both neighbouring pieces' values count."""
-        k, end = self.stretch, self.duration / self.stretch
-        t = self.knot_times / k
-        frac = np.arange(CHECKS_PER_INTERVAL) / CHECKS_PER_INTERVAL
-        tau = np.concatenate([(t[:-1, None] + np.diff(t)[:, None] * frac).ravel(), [end]])
-        _, vel, acc = evaluate(self.law, self.path, tau, end, k)
-        s = np.clip(self.law(tau), 0.0, 1.0)
-        sd, sdd, sddd = (self.law(tau, n) / k**n for n in (1, 2, 3))
-        d1, d2 = self.path(s, 1), self.path(s, 2)
-        x = self.path.x
-        jerk = np.zeros(vel.shape[1])
-        for back in (0, 1):  # this cubic piece and the previous one
-            piece = np.clip(np.searchsorted(x, s, side="right") - 1 - back, 0, len(x) - 2)
-            d3 = 6.0 * self.path.c[0, piece]
-            j = d3 * (sd**3)[:, None] + 3.0 * d2 * (sd * sdd)[:, None] + d1 * sddd[:, None]
-            jerk = np.maximum(jerk, np.abs(j).max(axis=0))
-        return Peaks(np.abs(vel).max(axis=0), np.abs(acc).max(axis=0), jerk)
+        """Largest |q'|, |q''|, |q'''| per joint over the chunk (see the module docstring)."""
+        knots = np.unique(np.concatenate([self.knot_times, self.switch_times()]))
+        t = dense_times(knots, CHECKS_PER_INTERVAL)
+        eps = 1e-9 * max(self.duration, 1.0)
+        t = np.unique(np.concatenate([t, self.switch_times() - eps, self.switch_times() + eps]))
+        t = t[(t >= 0.0) & (t <= self.duration)]
+        values = np.abs(np.stack(joint_motion(self.path, self.law, t, jerk=True)[1:]))
+        velocity, acceleration, jerk = self._refined(t, values)
+        return Peaks(velocity, acceleration, jerk)
 
+    def _refined(self, t: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Per order and joint, the grid maximum of ``f`` ``(3, N, dof)`` (the absolute first,
+        second and third derivatives at ``t``), raised by a golden-section search between the grid
+        neighbours of its ``REFINED`` highest values (all searches at once: one ``joint_motion``
+        call per step and side)."""
+        n_orders, n, dof = f.shape
+        top = np.argsort(f, axis=1)[:, -REFINED:, :]  # (3, R, dof) rows of the highest values
+        order = np.broadcast_to(np.arange(n_orders)[:, None, None], top.shape).ravel()
+        joint = np.broadcast_to(np.arange(dof)[None, None, :], top.shape).ravel()
+        rows = top.ravel()
+        a, b = t[np.maximum(rows - 1, 0)], t[np.minimum(rows + 1, n - 1)]
 
-def evaluate(
-    law: Callable[..., np.ndarray],
-    path: CubicSpline,
-    tau: np.ndarray,
-    end: float,
-    k: float = 1.0,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Positions, velocities, accelerations (N, dof) at unstretched times ``tau`` (clipped to
-    [0, ``end``]) of a timing stretched by ``k`` (s' divided by k, s'' by k^2)."""
-    tau = np.clip(tau, 0.0, end)
-    s = np.clip(law(tau), 0.0, 1.0)
-    sd, sdd = law(tau, 1) / k, law(tau, 2) / k**2
-    d1 = path(s, 1)
-    return path(s), d1 * sd[:, None], path(s, 2) * (sd**2)[:, None] + d1 * sdd[:, None]
+        def value(x: np.ndarray) -> np.ndarray:
+            motion = np.stack(joint_motion(self.path, self.law, x, jerk=True)[1:])
+            return np.abs(motion[order, np.arange(len(x)), joint])
 
-
-def norm_rows(a: np.ndarray) -> np.ndarray:
-    return np.linalg.norm(a, axis=1)
+        c, d = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
+        fc, fd = value(c), value(d)
+        best = np.maximum(fc, fd)
+        for _ in range(_GOLDEN_STEPS):
+            left = fc > fd
+            b, a = np.where(left, d, b), np.where(left, a, c)
+            c, d = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
+            fc, fd = value(c), value(d)
+            best = np.maximum(best, np.maximum(fc, fd))
+        peak = f.max(axis=1)  # (3, dof)
+        np.maximum.at(peak, (order, joint), best)
+        return peak

@@ -1,10 +1,14 @@
 """A program's joint path as chunks of pieces (segments' own parts and blends), and their timing.
 
 The path is cut into chunks at every stop (an unblended segment goal); a chunk is a list of
-``Piece``s (a segment's own part, or a blend) that share their junction samples. ``time_chunk``
-times one chunk rest to rest (``core.program.timing``: time-optimal, or an S-curve), or a lone
-unblended PTP with a ``profile`` by that profile along its joint segment (``core.program.ptp``),
-and records when each piece and each of its samples is reached. Units: [rad or m], [s].
+``Piece``s (a segment's own part, or a blend) that share their junction samples. ``time_pieces``
+times one chunk rest to rest: its joint path (``core.program.chunk.ChunkPath``) under its
+``PathLimits`` (each sample's joint limits times its segment's scales, its tool speed and
+acceleration limits, the tool's rate from the Jacobian) by a law of ``core.timing.TIMING_LAWS``:
+the ``speed_profile`` its LIN/CIRC segments ask for when one asks for another than the default
+(``s_curve``), else the program's ``timing``. A lone unblended PTP with a ``profile`` is timed by
+that joint profile instead, along its joint segment (``core.joint.synchronous``). Each piece
+records when it and each of its samples is reached. Units: [rad or m], [s].
 """
 
 from __future__ import annotations
@@ -13,13 +17,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import InputError, PlanningError
+from core.errors import Infeasible, InputError, PlanningError
+from core.joint.synchronous import straight_ptp
+from core.kinematics import jacobians
 from core.limits import JointLimits
 from core.program.build import Geometry
-from core.program.chunk import ChunkInput, ChunkTiming
-from core.program.ptp import straight_ptp
-from core.program.segments import ANGULAR_ACCELERATION, LINEAR_ACCELERATION, ProgramTask
-from core.program.timing import time_chunk
+from core.program.chunk import ChunkPath, ChunkTiming
+from core.program.segments import ProgramTask
+from core.timing import DEFAULT_LAW, TIMING_LAWS, TimingSpec
+from core.timing.path_limits import PathLimits
 from core.trajectory import Peaks, Profile
 
 __all__ = ["Piece", "ProfileTiming", "chunks_of", "profile_kind", "time_pieces"]
@@ -61,21 +67,9 @@ def chunks_of(task: ProgramTask, geo: Geometry) -> list[list[Piece]]:
     for sp in geo.segments:
         seg = sp.seg
         s, q = sp.piece()
-        # a knot spline (bounded_deviation) leaves the path within its tolerance: the tool's own
-        # poses, so its speed limits hold for the tool itself
-        T = sp.poses(robot, s) if sp.knot_count is None else robot.fk_many(q)
-        cart = seg.cartesian
-        acc = (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if cart else (np.inf, np.inf)
-        piece = Piece(
-            sp.index,
-            False,
-            q,
-            T,
-            (seg.velocity_scale, seg.acceleration_scale),
-            seg.tool_speeds(),
-            acc,
-            s,
-        )
+        scales = (seg.velocity_scale, seg.acceleration_scale)
+        piece = Piece(sp.index, False, q, robot.fk_many(q), scales, seg.tool_speeds(),
+                      seg.tool_accelerations(), s)  # fmt: skip
         chunks[-1].append(piece)
         blend = geo.blends.get(sp.index)
         if blend is None:
@@ -92,29 +86,65 @@ def chunks_of(task: ProgramTask, geo: Geometry) -> list[list[Piece]]:
                     min(seg.velocity_scale, nxt.velocity_scale),
                     min(seg.acceleration_scale, nxt.acceleration_scale),
                 ),
-                tuple(np.minimum(seg.tool_speeds(), nxt.tool_speeds())),
-                (LINEAR_ACCELERATION, ANGULAR_ACCELERATION) if blend.cartesian else acc,
+                _lowest(seg.tool_speeds(), nxt.tool_speeds()),
+                _lowest(seg.tool_accelerations(), nxt.tool_accelerations()),
             )
         )
     return [c for c in chunks if c]
 
 
-def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
-    """Time one chunk; record each piece's (start, end) time and sample times in the chunk. None
-    if it is still."""
+def _lowest(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
+    return (min(a[0], b[0]), min(a[1], b[1]))
+
+
+def chunk_law(task: ProgramTask, chunk: list[Piece]) -> str:
+    """The ``TIMING_LAWS`` name of a chunk (see the module docstring)."""
+    asked = [
+        task.segments[p.owner].speed_profile
+        for p in chunk
+        if not p.blend and task.segments[p.owner].cartesian
+    ]
+    other = [name for name in asked if name != DEFAULT_LAW]
+    return other[0] if other else task.timing
+
+
+def _limits(task: ProgramTask, chunk: list[Piece], path: ChunkPath, keep: np.ndarray) -> PathLimits:
+    """The chunk's ``PathLimits`` at its (kept) samples, for the law ``chunk_law`` names."""
     robot = task.robot
-    qs, Ts, starts = [], [], []
     rows: dict[str, list[np.ndarray]] = {"v": [], "a": [], "ts": [], "ta": []}
     for k, p in enumerate(chunk):
         first = 0 if k == 0 else 1  # pieces share their junction sample
-        starts.append(sum(len(x) for x in qs) - (0 if k == 0 else 1))
         n = len(p.q) - first
-        qs.append(p.q[first:])
-        Ts.append(p.T[first:])
         rows["v"].append(np.tile(robot.velocity_limits * p.scales[0], (n, 1)))
         rows["a"].append(np.tile(robot.acceleration_limits * p.scales[1], (n, 1)))
         rows["ts"].append(np.tile(p.tool_speed, (n, 1)))
         rows["ta"].append(np.tile(p.tool_acc, (n, 1)))
+    v, a, ts, ta = (np.concatenate(rows[key])[keep] for key in ("v", "a", "ts", "ta"))
+    # the tool's own positions along the joint path (FK of its samples): what the jerk-limited
+    # law bounds
+    tool = robot.fk_many(path.samples)[:, :3, 3]
+    # The tool's rate per unit s: J dq/ds (exact for the joint path, on or off the line).
+    J = jacobians(robot, path.samples)
+    twist = np.einsum("nij,nj->ni", J, path(path.knots, 1))
+    rate = np.stack([np.linalg.norm(twist[:, :3], axis=1), np.linalg.norm(twist[:, 3:], axis=1)])
+    asking = [
+        task.segments[p.owner].tool_jerks()
+        for p in chunk
+        if not p.blend and task.segments[p.owner].cartesian
+    ]
+    jerk = tuple(np.min(asking, axis=0).tolist()) if asking else None
+    return PathLimits(path.knots, v, a, rate.T, ts, ta, tool, jerk)  # type: ignore[arg-type]
+
+
+def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
+    """Time one chunk; record each piece's (start, end) time and sample times in the chunk. None
+    if it is still."""
+    qs: list[np.ndarray] = []
+    starts: list[int] = []
+    for k, p in enumerate(chunk):
+        first = 0 if k == 0 else 1  # pieces share their junction sample
+        starts.append(sum(len(x) for x in qs) - first)
+        qs.append(p.q[first:])
     q = np.concatenate(qs)
     ends = [*starts[1:], len(q) - 1]
     step = np.linalg.norm(np.diff(q, axis=0), axis=1)
@@ -122,24 +152,11 @@ def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
         return None
     keep = np.concatenate([[True], step > 1e-13])
     index = np.cumsum(keep) - 1  # old sample -> kept sample
-    asking = [
-        task.segments[p.owner]
-        for p in chunk
-        if not p.blend and task.segments[p.owner].speed_profile == "s_curve"
-    ]
-    jerk = None
-    if asking:  # one S-curve for the stretch, under the tightest jerk limits asked
-        jerk = tuple(np.min([seg.tool_jerks() for seg in asking], axis=0).tolist())
-    c = ChunkInput(
-        q[keep],
-        np.concatenate(Ts)[keep],
-        np.concatenate(rows["v"])[keep],
-        np.concatenate(rows["a"])[keep],
-        np.concatenate(rows["ts"])[keep],
-        np.concatenate(rows["ta"])[keep],
-        jerk,
+    path = ChunkPath(q[keep])
+    law = TIMING_LAWS[chunk_law(task, chunk)]
+    timing = ChunkTiming.of(
+        path, law(TimingSpec(path=path, limits=_limits(task, chunk, path, keep)))
     )
-    timing = time_chunk(c)
     for p, a, b in zip(chunk, starts, ends, strict=True):
         p.times = (float(timing.knot_times[index[a]]), float(timing.knot_times[index[b]]))
         p.knots = timing.knot_times[index[a : b + 1]]
@@ -148,8 +165,8 @@ def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
 
 @dataclass(frozen=True)
 class ProfileTiming:
-    """A chunk that is one unblended PTP, timed by its joint profile (``core.program.ptp``): rest
-    to rest along the joint segment, sampled exactly (``sample`` as ``ChunkTiming.sample``).
+    """A chunk that is one unblended PTP, timed by its joint profile (``core.joint.synchronous``):
+    rest to rest along the joint segment, sampled exactly (``sample`` as ``ChunkTiming.sample``).
 
     Attributes:
         profile: The straight-line profile (``StraightProfile``), t in [0, duration] [s].
@@ -164,6 +181,14 @@ class ProfileTiming:
     def peaks(self) -> Peaks:
         """The profile's exact peaks."""
         return self.profile.peaks()
+
+    def switch_times(self) -> np.ndarray:
+        """The profile's switch times [s] (a trapezoid's ramp ends, Ruckig's phases)."""
+        return self.profile.switch_times()
+
+    def ends(self) -> np.ndarray:
+        """``(2, dof)``: the start and goal joint positions, exactly."""
+        return np.asarray(self.profile.sample(np.array([0.0, self.duration]))[0])
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities, accelerations (N, dof) at times ``t`` (N,) [s]."""
@@ -209,4 +234,20 @@ def time_pieces(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | ProfileT
         return _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
     except PlanningError as err:  # e.g. an S-curve over Ruckig's duration cap
         err.extra.setdefault("segment", chunk[0].owner)
+        if isinstance(err, Infeasible) and err.field is None:  # too slow: the smallest scale
+            err.field = _slowest(task, chunk)
         raise
+
+
+def _slowest(task: ProgramTask, chunk: list[Piece]) -> tuple[str | int, ...]:
+    """The field that slows ``chunk`` most: the smallest velocity or acceleration scale of its
+    segments (an acceleration scale counts squared: time grows as 1/sqrt of it)."""
+    best = np.inf
+    field: tuple[str | int, ...] = ("segments", chunk[0].owner)
+    for p in chunk:
+        seg = task.segments[p.owner]
+        for name, slowdown in (("velocity_scale", seg.velocity_scale),
+                               ("acceleration_scale", np.sqrt(seg.acceleration_scale))):  # fmt: skip
+            if slowdown < best:
+                best, field = slowdown, ("segments", p.owner, name)
+    return field

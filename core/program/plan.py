@@ -1,238 +1,33 @@
-"""A motion program as one trajectory: validate -> geometry (``build``) -> timing -> samples.
+"""A motion program as one trajectory: the one pipeline of ``POST /v1/trajectories/program``.
+
+    layout -> check start -> build (segments, blends) -> time chunks -> settle -> assemble
+    -> collide
 
 The joint path is cut into chunks at every stop (an unblended segment goal); blended corners stay
-inside a chunk. Each chunk is timed as one rest-to-rest motion (``core.program.timing``; an
-S-curve when one of its LIN/CIRC segments asks for ``speed_profile="s_curve"``), so the program
-stops exactly at unblended goals and nowhere else. A chunk that is a lone PTP with a ``profile``
-is timed by that joint profile instead, synchronously (``core.program.ptp``: every joint follows
-one law s(t), so the joint path stays the straight segment; trapezoidal, quintic, or jerk_limited
-on Ruckig), under the joint limits times the segment's scales. The returned points are a regular grid
-(``sample_period`` or ``samples``) plus every segment boundary and blend window boundary, so a
-controller reaches each goal exactly. LIN/CIRC deviation from their line/arc is measured outside
-the blend windows along the returned trajectory (``core.program.report``). The trajectory's
-peaks (``peak_jerk`` included) are those of the analytic q(t) of every chunk.
-
-``ProgramResult.stop_at(t, failure)`` is the same program cut at time t and brought to rest there:
-the chunks before unchanged, the one holding t re-timed rest to rest along its own joint path up
-to the position at t (``allow_partial`` when a collision check cuts the answer).
+inside a chunk. Each chunk is a ``JointPath`` timed as one rest-to-rest motion by a law of
+``core.timing.TIMING_LAWS`` (``core.program.pieces``: the program's ``timing``, or the
+``speed_profile`` its LIN/CIRC segments ask for), so the program stops exactly at unblended goals
+and nowhere else. A chunk that is a lone PTP with a ``profile`` is timed by that joint profile
+instead, synchronously (``core.joint.synchronous``), under the joint limits times the segment's
+scales (``core.program.timed``). The timed chunks are returned as what their points describe
+(``core.program.returned``), slowed where that overshoots a limit, sampled and reported
+(``core.program.assemble``), and the whole motion is checked for collisions, stopping before a
+contact with ``allow_partial`` (``core.program.stop``).
 """
 
 from __future__ import annotations
 
-import functools
-from dataclasses import replace
-
-import numpy as np
-
-from core.errors import InputError, PlanningError, TooLarge
-from core.program.build import Geometry, build
-from core.program.chunk import ChunkTiming
-from core.program.pieces import Piece, ProfileTiming, chunks_of, profile_kind, time_pieces
-from core.program.report import ProgramResult, SegmentResult, report
-from core.program.s_curve import ShapedSCurve
+from core.program.assemble import assemble, settled
+from core.program.report import ProgramResult, SegmentResult
 from core.program.segments import ProgramTask
-from core.program.validate import Layout, layout
-from core.timing.s_curve import SCurveTiming
-from core.trajectory import MAX_POINTS, Peaks, Trajectory, sample_times
-
-_MIN_GAP = 1e-6
-"""Regular sample times closer than this [s] to a boundary time are dropped (the boundary stays)."""
-
-Timed = tuple[float, ChunkTiming | ProfileTiming, list[Piece]]
-"""A timed chunk: its start [s] in the program, its timing, its pieces (times in the program)."""
+from core.program.stop import collide
+from core.program.timed import timed_program
 
 
 def plan_program(task: ProgramTask) -> ProgramResult:
     """Plan ``task`` (see the module docstring)."""
-    lay = layout(task)
-    geo = build(task, lay)
-    timings: list[Timed] = []
-    offset = 0.0
-    profiled: set[int] = set()
-    timed_by: dict[int, str] = {}
-    for chunk in chunks_of(task, geo):
-        task.deadline.check("timing the program")
-        timing = time_pieces(task, chunk)
-        kind = profile_kind(task, chunk)
-        if kind is not None:
-            profiled.add(chunk[0].owner)
-        elif timing is not None:
-            kind = (
-                "s_curve" if isinstance(timing.law, SCurveTiming | ShapedSCurve) else "time_optimal"
-            )
-        for p in chunk:
-            if not p.blend:
-                timed_by[p.owner] = kind or "time_optimal"
-        if timing is None:
-            continue
-        timings.append(_placed(offset, timing, chunk))
-        offset += timing.duration
-    if not timings:
-        raise InputError("the program does not move the arm", field=("segments",))
-    result = _assemble(task, lay, geo, timings, profiled, timed_by)
-    stop = functools.partial(_stop_at, task, lay, geo, timings, profiled, timed_by)
-    return replace(result, stop_at=stop)
-
-
-def _placed(offset: float, timing: ChunkTiming | ProfileTiming, chunk: list[Piece]) -> Timed:
-    """The chunk placed at ``offset`` [s]: its pieces' times moved into the program's."""
-    for p in chunk:
-        p.times = (p.times[0] + offset, p.times[1] + offset)
-    return offset, timing, chunk
-
-
-def _assemble(
-    task: ProgramTask,
-    lay: Layout,
-    geo: Geometry,
-    timings: list[Timed],
-    profiled: set[int],
-    timed_by: dict[int, str],
-) -> ProgramResult:
-    """Sample the timed chunks and report them (``core.program.report``)."""
-    robot = task.robot
-    duration = timings[-1][0] + timings[-1][1].duration
-    regular = sample_times(duration, task.sample_period, task.samples, MAX_POINTS)
-    marks = np.unique([t for _, _, ch in timings for p in ch for t in p.times])
-    near = np.min(np.abs(regular[:, None] - marks[None, :]), axis=1) < _MIN_GAP
-    times = np.union1d(regular[~near], marks)
-    if len(times) > MAX_POINTS:
-        raise TooLarge(
-            f"the program needs {len(times)} points (the regular ones and {len(marks)} segment "
-            f"and blend boundaries), over the limit of {MAX_POINTS}",
-            field=("samples",) if task.samples is not None else ("sample_period",),
-        )
-    q, qd, qdd = _sample(timings, times)
-    # Peaks of the analytic q(t) of every chunk (exact for joint profiles, dense for the rest),
-    # never below the returned samples'.
-    peaks = [timing.peaks() for _, timing, _ in timings]
-    combined = Peaks(
-        np.maximum(np.max([p.velocity for p in peaks], axis=0), np.abs(qd).max(axis=0)),
-        np.maximum(np.max([p.acceleration for p in peaks], axis=0), np.abs(qdd).max(axis=0)),
-        np.max([p.jerk for p in peaks], axis=0),
-    )
-    traj = Trajectory(times, q, qd, qdd, robot.joint_names, peaks=combined)
-    spans = {(p.owner, p.blend): p.times for _, _, ch in timings for p in ch}
-
-    def sampler(t: np.ndarray) -> np.ndarray:
-        return _sample(timings, t)[0]
-
-    result = report(task, lay, geo, spans, traj, sampler)
-    planned = {sp.index for sp in geo.segments}
-    ignored = tuple(
-        f"segment {i}: profile {seg.profile!r} ignored: a PTP inside a blend follows the "
-        "program's common timing (profiles apply to PTPs between stops)"
-        for i, seg in enumerate(task.segments)
-        if seg.profile is not None and i in planned and i not in profiled
-    )
-    if ignored:
-        result = replace(result, warnings=result.warnings + ignored)
-    for sr in result.segments:  # how each segment was timed
-        if sr.index in timed_by:
-            sr.diagnostics["timing"] = timed_by[sr.index]
-    # How much the dense limit check stretched the time-optimal timing (1.0: not at all), and
-    # how many rest-to-rest stretches the program has (stops + 1).
-    result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)
-    result.diagnostics["stops"] = len(timings) - 1
-    return result
-
-
-def _stop_at(
-    task: ProgramTask,
-    lay: Layout,
-    geo: Geometry,
-    timings: list[Timed],
-    profiled: set[int],
-    timed_by: dict[int, str],
-    t: float,
-    failure: PlanningError,
-) -> ProgramResult | None:
-    """The program up to time ``t`` [s], at rest there (see the module docstring), with
-    ``failure`` as its partial plan's; None when nothing before ``t`` moves."""
-    task.deadline.check("bringing the program to rest")
-    starts = np.array([o for o, _, _ in timings])
-    k = int(np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(timings) - 1))
-    offset, timing, chunk = timings[k]
-    tau = t - offset
-    kept = list(timings[:k])
-    share = 1.0  # of the path parameter of the last kept piece's segment
-    if tau >= timing.duration - _MIN_GAP:  # the whole chunk: it ends at rest
-        kept.append(timings[k])
-    elif tau > _MIN_GAP:
-        cut, share = _cut(task, chunk, timing, tau)
-        retimed = time_pieces(task, cut) if cut else None
-        if retimed is None:
-            share = 1.0
-        else:
-            kept.append(_placed(offset, retimed, cut))
-    if not kept:
-        return None
-    owner = kept[-1][2][-1].owner
-    short = replace(task, segments=task.segments[: owner + 1])
-    few = replace(geo, segments=tuple(sp for sp in geo.segments if sp.index <= owner), failure=None)
-    result = _assemble(short, lay, few, kept, profiled, timed_by)
-    fraction = (owner + share) / len(task.segments)
-    return replace(
-        result,
-        fraction=fraction,
-        failure=failure,
-        warnings=(f"planned {fraction:.1%} of the program: {failure.detail}", *result.warnings),
-    )
-
-
-def _cut(
-    task: ProgramTask, chunk: list[Piece], timing: ChunkTiming | ProfileTiming, tau: float
-) -> tuple[list[Piece], float]:
-    """The chunk's pieces up to its time ``tau`` [s], the last ending at the position there (new
-    pieces, not yet timed), and the share of its segment's path parameter reached."""
-    robot = task.robot
-    offset = chunk[0].times[0]
-    q_cut = timing.sample(np.array([tau]))[0][0]
-    out: list[Piece] = []
-    for p in chunk:
-        fresh = replace(p, times=(0.0, 0.0), knots=None)
-        if p.times[1] - offset <= tau:
-            out.append(fresh)
-            continue
-        if p.knots is None:  # a profiled PTP: its straight segment
-            keep = np.array([True] + [False] * (len(p.q) - 1))
-        else:
-            keep = p.knots < tau - 1e-12
-        if keep.any():
-            share = 1.0
-            if p.s is not None:
-                if p.knots is None:
-                    d = p.q[-1] - p.q[0]
-                    u = float(np.clip((q_cut - p.q[0]) @ d / (d @ d), 0.0, 1.0))
-                    share = float(p.s[0] + u * (p.s[-1] - p.s[0]))
-                else:
-                    share = float(np.interp(tau, p.knots, p.s))
-            out.append(
-                replace(
-                    fresh,
-                    q=np.concatenate([p.q[keep], q_cut[None]]),
-                    T=np.concatenate([p.T[keep], robot.fk(q_cut)[None]]),
-                    s=None if p.s is None else np.append(p.s[keep], share),
-                )
-            )
-            return out, share
-        break
-    return out, 1.0
-
-
-def _sample(timings: list[Timed], times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Positions, velocities, accelerations at ``times``, exact (and at rest) at chunk ends."""
-    starts = np.array([o for o, _, _ in timings])
-    which = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(timings) - 1)
-    dof = timings[0][2][0].q.shape[1]
-    q, qd, qdd = (np.empty((len(times), dof)) for _ in range(3))
-    for k, (offset, timing, chunk) in enumerate(timings):
-        sel = which == k
-        q[sel], qd[sel], qdd[sel] = timing.sample(times[sel] - offset)
-        for t, value in ((offset, chunk[0].q[0]), (offset + timing.duration, chunk[-1].q[-1])):
-            hit = np.flatnonzero(np.abs(times - t) < 1e-12)
-            q[hit], qd[hit], qdd[hit] = value, 0.0, 0.0
-    return q, qd, qdd
+    timed = settled(timed_program(task))
+    return collide(timed, assemble(timed))
 
 
 __all__ = ["ProgramResult", "SegmentResult", "plan_program"]

@@ -2,7 +2,7 @@
 
 LIN/CIRC segments are measured against their line/arc outside the blend windows, along the
 returned trajectory with ``CHECKS`` checks between consecutive returned points (FK of the
-trajectory's own q(t), not of the IK samples).
+returned motion, not of the IK samples); over the tolerance is 422 ``infeasible`` at the segment.
 """
 
 from __future__ import annotations
@@ -13,8 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from core.errors import PlanningError
+from core.collisions import ClearanceReport
+from core.errors import Infeasible, PlanningError
 from core.program.build import Geometry
+from core.program.geometry.paths import SegmentPath
 from core.program.segments import ProgramTask
 from core.program.validate import Layout
 from core.trajectory import Trajectory
@@ -23,6 +25,8 @@ CHECKS = 10
 """Deviation checks between consecutive returned points (as for single lines)."""
 GOAL_BRANCH_WARNING = 1e-3
 """A LIN/CIRC ending farther than this [rad] from its goal.positions gets a warning."""
+TOLERANCE_SLACK = 1e-6
+"""Relative slack of the tolerance check (rounding of the dense measurement)."""
 
 
 @dataclass(frozen=True)
@@ -58,9 +62,8 @@ class ProgramResult:
         fraction: Share of the segments planned (1.0 unless partial).
         failure: What stopped a partial plan, else None.
         diagnostics: Program-wide facts (max deviations, stretch, chunk count).
-        stop_at: ``stop_at(t, failure)``: the program cut at time ``t`` [s] and brought to rest
-            there along its own path (``core.program.plan``), a partial plan failing with
-            ``failure``; None when nothing before ``t`` moves. None: not offered.
+        clearance: How close the motion comes to contact (``core.collisions``), None when nothing
+            is checked.
     """
 
     trajectory: Trajectory
@@ -69,9 +72,7 @@ class ProgramResult:
     fraction: float
     failure: PlanningError | None
     diagnostics: dict[str, Any]
-    stop_at: Callable[[float, PlanningError], ProgramResult | None] | None = field(
-        default=None, repr=False, compare=False
-    )
+    clearance: ClearanceReport | None = None
 
 
 def _dense(times: np.ndarray, t0: float, t1: float) -> np.ndarray:
@@ -80,6 +81,51 @@ def _dense(times: np.ndarray, t0: float, t1: float) -> np.ndarray:
     grid = np.unique(np.concatenate([[t0], inside, [t1]]))
     frac = np.arange(CHECKS) / CHECKS
     return np.concatenate([(grid[:-1, None] + np.diff(grid)[:, None] * frac).ravel(), [t1]])
+
+
+def _measured(
+    task: ProgramTask,
+    sp: SegmentPath,
+    traj: Trajectory,
+    sampler: Callable[[np.ndarray], np.ndarray],
+    window: tuple[float, float],
+) -> dict[str, Any]:
+    """A LIN/CIRC segment's own part measured against its path (``CHECKS`` per returned interval
+    of the returned motion): its diagnostics; ``Infeasible`` at the segment and its ``s`` where it
+    strays over its tolerance (the contract: outside the blend spheres every LIN/CIRC stays on its
+    line within tolerance)."""
+    seg, path = sp.seg, sp.path
+    assert path is not None
+    dense = _dense(traj.times, *window)
+    dev = path.deviation(
+        task.robot.fk_many(sampler(dense)), seg.position_tolerance, seg.orientation_tolerance
+    )
+    dp, do = float(dev.position.max()), float(dev.orientation.max())
+    ratio = np.maximum(
+        dev.position / seg.position_tolerance, dev.orientation / seg.orientation_tolerance
+    )
+    if ratio.max() > 1.0 + TOLERANCE_SLACK:
+        k = int(np.argmax(ratio))
+        raise Infeasible(
+            f"segment {sp.index} strays up to {dp:.3g} m / {do:.3g} rad from its path between "
+            f"returned points, over its tolerance: give a larger tolerance or more samples",
+            s=float(dev.s[k]),
+            extra={
+                "segment": sp.index,
+                "max_position_deviation": dp,
+                "max_orientation_deviation": do,
+            },
+        )
+    diag: dict[str, Any] = {
+        "max_position_deviation": dp,
+        "max_orientation_deviation": do,
+        "min_singular_value": sp.min_singular_value,
+        "length": path.length,
+        "method": seg.method,
+    }
+    if sp.knot_count is not None:
+        diag["knot_count"] = sp.knot_count
+    return diag
 
 
 def report(
@@ -91,7 +137,6 @@ def report(
     sampler: Callable[[np.ndarray], np.ndarray],
 ) -> ProgramResult:
     """Assemble the ``ProgramResult`` (``spans``: (segment, is_blend) -> (start, end) [s])."""
-    robot = task.robot
     warnings = list(lay.warnings)
     planned = {sp.index: sp for sp in geo.segments}
     last_planned = max(planned)
@@ -115,27 +160,10 @@ def report(
             "duration": t1 - t0 + (blend[1] - blend[0] if blend else 0.0),
         }
         if sp.path is not None and t1 > t0:
-            dense = _dense(traj.times, t0, t1)
-            dev = sp.path.deviation(
-                robot.fk_many(sampler(dense)), seg.position_tolerance, seg.orientation_tolerance
-            )
-            dp, do = float(dev.position.max()), float(dev.orientation.max())
-            diag.update(
-                max_position_deviation=dp,
-                max_orientation_deviation=do,
-                min_singular_value=sp.min_singular_value,
-                length=sp.path.length,
-                method=seg.method,
-            )
-            if sp.knot_count is not None:
-                diag["knot_count"] = sp.knot_count
-            worst_p, worst_o = max(worst_p, dp), max(worst_o, do)
+            diag.update(_measured(task, sp, traj, sampler, (t0, t1)))
+            worst_p = max(worst_p, diag["max_position_deviation"])
+            worst_o = max(worst_o, diag["max_orientation_deviation"])
             sigma = min(sigma, sp.min_singular_value)
-            if dp > seg.position_tolerance or do > seg.orientation_tolerance:
-                warnings.append(
-                    f"segment {i} strays up to {dp:.3g} m / {do:.3g} rad from its path between "
-                    "returned points, over its tolerance"
-                )
         if sp.path is not None and seg.goal_positions is not None and sp.s[-1] == 1.0:
             gap = float(np.abs(sp.q_goal - seg.goal_positions).max())
             if gap > GOAL_BRANCH_WARNING:
@@ -147,7 +175,7 @@ def report(
         results.append(SegmentResult(i, seg.type, t0, t1, blend, diag))
         t_prev = blend[1] if blend else t1
     fraction = 1.0
-    if geo.failure is not None:
+    if geo.failure is not None and geo.failed_segment is not None:
         n = len(task.segments)
         # the segments before the failing one, plus the share of it that is returned (none of a
         # PTP or of a segment whose start already fails; a LIN/CIRC up to where it got)

@@ -12,21 +12,22 @@ from typing import Literal
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.kinematics import Kinematics
+from core.cartesian.task import DEFAULT_MAX_ANGULAR_SPEED, DEFAULT_MAX_LINEAR_SPEED
+from core.joint.profiles import PROFILES
+from core.kinematics import Clearance, Kinematics
+from core.timing import DEFAULT_LAW
 from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
+from core.timing.speed_limited import DEFAULT_ANGULAR_ACCELERATION, DEFAULT_LINEAR_ACCELERATION
 
 SegmentType = Literal["ptp", "lin", "circ"]
-PTP_PROFILES = ("trapezoidal", "quintic", "jerk_limited")
-"""Joint profiles a PTP between stops may ask for (entries of ``core.joint.profiles.PROFILES``)."""
 MAX_SEGMENTS = 100
-DEFAULT_MAX_LINEAR_SPEED = 0.25
-"""Tool speed [m/s] of a LIN/CIRC segment without ``max_linear_speed`` (as a single line)."""
-DEFAULT_MAX_ANGULAR_SPEED = 1.0
-"""Tool angular speed [rad/s] of a LIN/CIRC segment without ``max_angular_speed``."""
-LINEAR_ACCELERATION = 1.0
-"""Tool acceleration [m/s^2] along LIN/CIRC segments (as a single line)."""
-ANGULAR_ACCELERATION = 2.0
-"""Tool angular acceleration [rad/s^2] along LIN/CIRC segments."""
+
+
+def ptp_profile(name: str) -> bool:
+    """Whether a PTP between stops may take the joint profile ``name``: a key of
+    ``core.joint.profiles.PROFILES`` held to acceleration limits (every one but ``linear``)."""
+    kind = PROFILES.get(name)
+    return kind is not None and "acceleration" in kind.rated
 
 
 @dataclass(frozen=True)
@@ -41,7 +42,7 @@ class Segment:
         profile: PTP between stops (not blended at either end): the joint profile of
             ``core.joint.profiles.PROFILES`` it is timed with (``trapezoidal``, ``quintic``,
             ``jerk_limited``), under the joint limits times its scales. None, or a PTP inside a
-            blend: the program's common timing (time-optimal along the path, C2).
+            blend: the program's timing of its stretch between stops.
         interim: CIRC: a point (3,) [m] on the arc.
         center: CIRC: the circle's centre (3,) [m].
         blend_radius: Radius [m] of the blend sphere about this segment's goal position (0: stop).
@@ -49,16 +50,18 @@ class Segment:
         acceleration_scale: Share (0, 1] of the joint acceleration limits.
         max_linear_speed: LIN/CIRC tool speed limit [m/s] (None: ``DEFAULT_MAX_LINEAR_SPEED``).
         max_angular_speed: LIN/CIRC tool angular speed limit [rad/s].
-        speed_profile: LIN/CIRC: ``"trapezoidal"`` (the program's time-optimal timing) or
-            ``"s_curve"``: the stretch between stops holding this segment is timed as one S-curve
-            (continuous path acceleration, path jerk limited by the tool jerk limits).
+        speed_profile: LIN/CIRC: a ``core.timing.TIMING_LAWS`` name: ``"trapezoidal"`` (the
+            default: the program's common timing) or ``"s_curve"``: the stretch between stops
+            holding this segment is timed as one S-curve (continuous path acceleration, path jerk
+            limited by the tool jerk limits).
         max_linear_jerk: S-curve tool jerk limit [m/s^3] (None: ``DEFAULT_LINEAR_JERK``).
         max_angular_jerk: S-curve tool angular jerk limit [rad/s^3] (None: ``DEFAULT_ANGULAR_JERK``).
+        max_linear_acceleration: LIN/CIRC tool acceleration limit [m/s^2] (None: 1).
+        max_angular_acceleration: LIN/CIRC tool angular acceleration limit [rad/s^2] (None: 2).
         position_tolerance: LIN/CIRC allowed deviation from the path [m].
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
-        method: LIN/CIRC: ``"sampled"`` (the joint spline through the dense IK walk) or
-            ``"bounded_deviation"`` (through as few of its IK solutions as keep the tolerance,
-            ``core.program.geometry.knots``).
+        method: LIN/CIRC: the ``core.cartesian.methods.METHODS`` entry that plans the segment's
+            joint path on its line or arc (``core.program.build``).
     """
 
     type: SegmentType
@@ -73,9 +76,11 @@ class Segment:
     acceleration_scale: float = 1.0
     max_linear_speed: float | None = None
     max_angular_speed: float | None = None
-    speed_profile: str = "trapezoidal"
+    speed_profile: str = DEFAULT_LAW
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
+    max_linear_acceleration: float | None = None
+    max_angular_acceleration: float | None = None
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
     method: str = "sampled"
@@ -89,6 +94,16 @@ class Segment:
     @property
     def cartesian(self) -> bool:
         return self.type != "ptp"
+
+    def tool_accelerations(self) -> tuple[float, float]:
+        """Tool acceleration limits [m/s^2], [rad/s^2] of a LIN/CIRC segment (inf for PTP)."""
+        if not self.cartesian:
+            return np.inf, np.inf
+        lin, ang = self.max_linear_acceleration, self.max_angular_acceleration
+        return (
+            DEFAULT_LINEAR_ACCELERATION if lin is None else float(lin),
+            DEFAULT_ANGULAR_ACCELERATION if ang is None else float(ang),
+        )
 
     def tool_speeds(self) -> tuple[float, float]:
         """Tool speed limits [m/s], [rad/s] of a LIN/CIRC segment (inf for PTP)."""
@@ -114,6 +129,11 @@ class ProgramTask:
             boundaries are added to them), or None.
         allow_partial: Return the program up to a failing segment instead of failing.
         deadline: Wall-time budget.
+        collision_check: The collision object the program is checked with (``core.collisions``:
+            the start and every goal given as joints before planning, then the whole motion
+            continuously), None: nothing to check.
+        timing: The ``core.timing.TIMING_LAWS`` law of the stretches between stops whose LIN/CIRC
+            segments ask for no other (``s_curve``): ``DEFAULT_LAW``.
     """
 
     robot: Kinematics
@@ -123,3 +143,5 @@ class ProgramTask:
     samples: int | None = None
     allow_partial: bool = False
     deadline: Deadline = NO_DEADLINE
+    collision_check: Clearance | None = None
+    timing: str = DEFAULT_LAW

@@ -17,9 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError
+from core.joint.profiles import PROFILES
 from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
-from core.program.segments import MAX_SEGMENTS, PTP_PROFILES, ProgramTask
+from core.program.segments import MAX_SEGMENTS, ProgramTask, ptp_profile
+from core.timing import DEFAULT_LAW, TIMING_LAWS
 
 ZERO_LENGTH = 1e-9
 """A segment moving the tool less than this [m] and [rad] (PTP: joints, [rad]) is skipped."""
@@ -58,32 +60,7 @@ def layout(task: ProgramTask) -> Layout:
     q_prev: np.ndarray | None = np.asarray(task.q_start, dtype=float)
     goals, lengths, active, warnings = [], [], [], []
     for i, seg in enumerate(segs):
-        for name in ("velocity_scale", "acceleration_scale"):
-            if not 0.0 < getattr(seg, name) <= 1.0:
-                raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
-        if seg.speed_profile not in ("trapezoidal", "s_curve") or (
-            seg.speed_profile == "s_curve" and not seg.cartesian
-        ):
-            raise InputError(
-                "speed_profile must be trapezoidal or s_curve (LIN/CIRC segments)",
-                field=("segments", i, "speed_profile"),
-            )
-        for name in ("max_linear_jerk", "max_angular_jerk"):
-            value = getattr(seg, name)
-            if value is not None and not (np.isfinite(value) and value > 0.0):
-                raise InputError(f"{name} must be > 0", field=("segments", i, name))
-        if seg.profile is not None:
-            if seg.type != "ptp" or seg.profile not in PTP_PROFILES:
-                raise InputError(
-                    f"profile must be one of {', '.join(PTP_PROFILES)} (PTP segments only)",
-                    field=("segments", i, "profile"),
-                )
-            if seg.profile == "jerk_limited" and robot.jerk_limits is None:
-                raise InputError(
-                    f"the jerk_limited profile needs the robot's jerk limits; {robot.name} "
-                    "publishes none",
-                    field=("segments", i, "profile"),
-                )
+        check_segment(task, i)
         if seg.goal_pose is not None:
             T_goal = np.asarray(seg.goal_pose, dtype=float)
         elif seg.goal_positions is not None:
@@ -93,21 +70,18 @@ def layout(task: ProgramTask) -> Layout:
         dp, dr = pose_error(T_prev, T_goal)
         if robot.task_space == "position_xy":  # only x and y count: a z or turn alone is no motion
             dp, dr = float(np.linalg.norm(T_goal[:2, 3] - T_prev[:2, 3])), 0.0
-        if seg.type == "circ":
-            if dp < ZERO_LENGTH and dr < ZERO_LENGTH:
-                length = 0.0
-            else:
-                length = cartesian_path(seg, T_prev, T_goal, robot.task_space, i).length
-        else:
-            length = dp
+        length = dp
+        if seg.type == "circ" and (dp >= ZERO_LENGTH or dr >= ZERO_LENGTH):
+            length = cartesian_path(seg, T_prev, T_goal, robot.task_space, i).length
+        elif seg.type == "circ":
+            length = 0.0
         moves = dp >= ZERO_LENGTH or dr >= ZERO_LENGTH
         if seg.type == "ptp" and seg.goal_positions is not None:
-            # Joints known so far (only PTPs to joints since the start): compare them too.
-            if q_prev is not None:
-                moves = bool(np.abs(np.asarray(seg.goal_positions) - q_prev).max() >= ZERO_LENGTH)
-            else:
-                moves = True  # another branch may reach the same pose: not skipped
-            q_prev = np.asarray(seg.goal_positions, dtype=float)
+            # Joints known so far (only PTPs to joints since the start): compare them too; else
+            # another branch may reach the same pose: not skipped.
+            q_goal = np.asarray(seg.goal_positions, dtype=float)
+            moves = q_prev is None or bool(np.abs(q_goal - q_prev).max() >= ZERO_LENGTH)
+            q_prev = q_goal
         else:
             q_prev = None
         if moves:
@@ -117,11 +91,53 @@ def layout(task: ProgramTask) -> Layout:
         goals.append(T_goal)
         lengths.append(float(length))
         T_prev = T_goal
-    if not active:
+    blends = blend_radii(task, active, lengths, goals)
+    for i, seg in enumerate(segs):
+        if seg.blend_radius > 0.0 and blends[i] == 0.0 and i != len(segs) - 1:
+            warnings.append(f"segment {i}: blend_radius ignored (no moving segment to blend with)")
+    return Layout(tuple(goals), tuple(lengths), tuple(active), tuple(blends), tuple(warnings))
+
+
+def check_segment(task: ProgramTask, i: int) -> None:
+    """The entry checks of segment ``i``: scales, timing law, tool limits, PTP profile."""
+    seg, robot = task.segments[i], task.robot
+    for name in ("velocity_scale", "acceleration_scale"):
+        if not 0.0 < getattr(seg, name) <= 1.0:
+            raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
+    if seg.speed_profile not in TIMING_LAWS or (
+        seg.speed_profile != DEFAULT_LAW and not seg.cartesian
+    ):
         raise InputError(
-            "every segment has zero length: the program does not move the arm",
-            field=("segments",),
+            f"speed_profile must be one of {', '.join(TIMING_LAWS)} (LIN/CIRC segments)",
+            field=("segments", i, "speed_profile"),
         )
+    tool = ("max_linear_jerk", "max_angular_jerk", "max_linear_acceleration",
+            "max_angular_acceleration")  # fmt: skip
+    for name in tool:
+        value = getattr(seg, name)
+        if value is not None and not (np.isfinite(value) and value > 0.0):
+            raise InputError(f"{name} must be > 0", field=("segments", i, name))
+    if seg.profile is None:
+        return
+    if seg.type != "ptp" or not ptp_profile(seg.profile):
+        names = tuple(k for k in PROFILES if ptp_profile(k))
+        raise InputError(
+            f"profile must be one of {', '.join(names)} (PTP segments only)",
+            field=("segments", i, "profile"),
+        )
+    if seg.profile == "jerk_limited" and robot.jerk_limits is None:
+        raise InputError(
+            f"the jerk_limited profile needs the robot's jerk limits; {robot.name} publishes none",
+            field=("segments", i, "profile"),
+        )
+
+
+def blend_radii(
+    task: ProgramTask, active: list[int], lengths: list[float], goals: list[np.ndarray]
+) -> list[float]:
+    """The blend radius out of each segment (0: it stops), checked against its neighbours'
+    lengths and the other sphere of the next segment (see the module docstring)."""
+    segs = task.segments
     blends = [0.0] * len(segs)
     for a, b in itertools.pairwise(active):
         r = segs[a].blend_radius
@@ -142,7 +158,4 @@ def layout(task: ProgramTask) -> Layout:
                 f"the blend spheres at both ends of segment {b} overlap",
                 field=("segments", b, "blend_radius"),
             )
-    for i, seg in enumerate(segs):
-        if seg.blend_radius > 0.0 and blends[i] == 0.0 and i != len(segs) - 1:
-            warnings.append(f"segment {i}: blend_radius ignored (no moving segment to blend with)")
-    return Layout(tuple(goals), tuple(lengths), tuple(active), tuple(blends), tuple(warnings))
+    return blends

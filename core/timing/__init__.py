@@ -1,40 +1,46 @@
 """Path timing laws s(t): the ``TIMING_LAWS`` registry (name -> law).
 
-Every law has the same signature, ``law(spec: TimingSpec) -> Profile``: it reads what it needs from
-the spec (a duration, or the path's extent and the tool speed limits, plus optional caps on s' and
-s'' from the joints) and returns a rest-to-rest ``Profile`` s(t). Adding a law is one module plus
-one line here. ``s_curve`` (``core.timing.s_curve``): continuous s'', |s'''| bounded by the tool
-jerk limits (``max_linear_jerk`` [m/s^3], ``max_angular_jerk`` [rad/s^3]).
+The names are the request's names (a Cartesian request's and a LIN/CIRC segment's
+``speed_profile``): the schema's ``Literal`` is built from this dict, and every timing goes through
+it (no code branches on a law's name). Every law has the same signature,
+``law(spec: TimingSpec) -> PathLaw``: it reads what it needs from the spec and returns a
+rest-to-rest s(t) (``core.timing.path_profile.PathLaw``):
+
+- a Cartesian path (``spec.path`` None): a duration, or the path's extent and the tool limits,
+  plus optional caps on s' and s'' from the joints (``core.cartesian.timing``);
+- a joint path (``spec.path``, a ``JointPath``, with ``spec.limits``, ``PathLimits``): a motion
+  program's rest-to-rest stretch (``core.program.chunks``) or any other geometric joint path.
+
+``trapezoidal``: the quintic over a fixed duration; else the speed-limited phase-plane trapezoid
+(``core.timing.speed_limited``); on a joint path, that trapezoid smoothed to C4 within the joint and
+tool limits (``core.timing.path_trapezoid``). ``s_curve``: continuous s'', |s'''| bounded by the
+tool jerk limits (``max_linear_jerk`` [m/s^3], ``max_angular_jerk`` [rad/s^3];
+``core.timing.s_curve``, on a joint path ``core.timing.path_s_curve``). Adding a law is one module
+plus one line here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
 from core.errors import InputError
+from core.timing.joint_path import JointPath
+from core.timing.path_limits import PathLimits
+from core.timing.path_profile import PathLaw
+from core.timing.path_s_curve import shaped_s_curve
+from core.timing.path_trapezoid import smooth_trapezoid
 from core.timing.quintic import QuinticTiming
 from core.timing.s_curve import SCurveTiming, s_curve_limited
 from core.timing.speed_limited import (
     DEFAULT_ANGULAR_ACCELERATION,
     DEFAULT_LINEAR_ACCELERATION,
-    GridTiming,
     speed_limited,
 )
 
-
-class Profile(Protocol):
-    """s(t) on [0, duration] [s]: ``profile(t, order)`` gives s, s' [1/s], s'' [1/s^2];
-    ``time_at(s)`` inverts it."""
-
-    duration: float
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...
-
-    def time_at(self, s: np.ndarray) -> np.ndarray: ...
+__all__ = ["DEFAULT_LAW", "TIMING_LAWS", "EndScaled", "PathLaw", "TimingLaw", "TimingSpec"]
 
 
 @dataclass(frozen=True)
@@ -44,7 +50,7 @@ class TimingSpec:
     Attributes:
         length: Distance [m] the tool travels along the path.
         angle: Rotation [rad] the tool turns through.
-        duration: Fixed duration [s] (the ``quintic`` law), or None.
+        duration: Fixed duration [s], or None.
         max_linear_speed: Tool speed limit [m/s], or None.
         max_angular_speed: Tool angular speed limit [rad/s], or None.
         end: Path parameter reached at the end (a partial plan's fraction).
@@ -53,6 +59,10 @@ class TimingSpec:
         acceleration_cap: Further bound on |s''| [1/s^2] per grid interval ``(K-1,)``, or None.
         max_linear_jerk: Tool jerk limit [m/s^3] (``s_curve``), or None for its default.
         max_angular_jerk: Tool angular jerk limit [rad/s^3] (``s_curve``), or None.
+        max_linear_acceleration: Tool acceleration limit [m/s^2] (None: 1 m/s^2).
+        max_angular_acceleration: Tool angular acceleration limit [rad/s^2] (None: 2 rad/s^2).
+        path: A geometric joint path to time (a program's stretch between stops), or None.
+        limits: The limits along ``path`` (needed with it).
     """
 
     length: float = 0.0
@@ -66,36 +76,34 @@ class TimingSpec:
     acceleration_cap: np.ndarray | None = None
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
+    max_linear_acceleration: float | None = None
+    max_angular_acceleration: float | None = None
+    path: JointPath | None = None
+    limits: PathLimits | None = None
+
+    def accelerations(self) -> tuple[float, float]:
+        """Tool acceleration limits [m/s^2], [rad/s^2] (the defaults where not given)."""
+        lin, ang = self.max_linear_acceleration, self.max_angular_acceleration
+        return (
+            DEFAULT_LINEAR_ACCELERATION if lin is None else float(lin),
+            DEFAULT_ANGULAR_ACCELERATION if ang is None else float(ang),
+        )
+
+    def joint_path(self) -> tuple[JointPath, PathLimits]:
+        """``(path, limits)`` of a joint-path timing (``InputError`` when the limits are missing)."""
+        if self.path is None or self.limits is None:
+            raise InputError("a joint path is timed under its limits: give both")
+        return self.path, self.limits
 
 
-TimingLaw = Callable[[TimingSpec], Profile]
-
-
-def quintic(spec: TimingSpec) -> QuinticTiming:
-    """The fixed-duration quintic (``core.timing.quintic``)."""
-    if spec.duration is None:
-        raise InputError("the quintic timing needs a duration", field=("duration",))
-    return QuinticTiming(spec.duration, spec.end)
-
-
-def speed_limited_law(spec: TimingSpec) -> GridTiming:
-    """The shortest profile under the tool speed limits and the caps (``speed_limited``)."""
-    return speed_limited(
-        spec.length,
-        spec.angle,
-        spec.max_linear_speed,
-        spec.max_angular_speed,
-        cap=spec.cap,
-        s=spec.s,
-        acceleration_cap=spec.acceleration_cap,
-    )
+TimingLaw = Callable[[TimingSpec], PathLaw]
 
 
 class EndScaled:
     """A rest-to-rest profile u(t) from 0 to 1 stretched to s(t) = end * u(t) (a partial plan's
     timing: s from 0 to ``end``)."""
 
-    def __init__(self, profile: Profile, end: float) -> None:
+    def __init__(self, profile: PathLaw, end: float) -> None:
         self.profile, self.end = profile, float(end)
         self.duration = float(profile.duration)
 
@@ -105,17 +113,44 @@ class EndScaled:
     def time_at(self, s: np.ndarray) -> np.ndarray:
         return self.profile.time_at(np.asarray(s, dtype=float) / self.end)
 
+    def switch_times(self) -> np.ndarray:
+        return self.profile.switch_times()
 
-def s_curve_law(spec: TimingSpec) -> Profile:
+
+def trapezoidal(spec: TimingSpec) -> PathLaw:
+    """The quintic over ``duration``; else the shortest speed-limited s(t) under the tool limits and
+    the caps; on a joint path, the smoothed trapezoid (see the module docstring)."""
+    if spec.path is not None:
+        return smooth_trapezoid(*spec.joint_path())
+    if spec.duration is not None:
+        return QuinticTiming(spec.duration, spec.end)
+    linear, angular = spec.accelerations()
+    return speed_limited(
+        spec.length,
+        spec.angle,
+        spec.max_linear_speed,
+        spec.max_angular_speed,
+        linear,
+        angular,
+        cap=spec.cap,
+        s=spec.s,
+        acceleration_cap=spec.acceleration_cap,
+    )
+
+
+def s_curve(spec: TimingSpec) -> PathLaw:
     """The jerk-limited S-curve (``core.timing.s_curve``) from s = 0 to ``spec.end``.
 
     With ``duration``: exactly that long (the canonical S-curve; with a jerk limit given,
     ``Infeasible`` naming the shortest duration when it needs longer). Otherwise the shortest
-    S-curve under the tool speed, acceleration (``DEFAULT_*_ACCELERATION``) and jerk limits, and
-    under the smallest joint caps on s' and |s''| (an S-curve has one bound of each, so they hold
-    conservatively).
+    S-curve under the tool speed, acceleration and jerk limits, and under the smallest joint caps
+    on s' and |s''| (an S-curve has one bound of each, so they hold conservatively). On a joint
+    path: ``core.timing.path_s_curve``.
     """
+    if spec.path is not None:
+        return shaped_s_curve(*spec.joint_path())
     end = float(spec.end)
+    profile: PathLaw
     if spec.duration is not None:
         jerk = np.inf
         for extent, limit in (
@@ -124,17 +159,16 @@ def s_curve_law(spec: TimingSpec) -> Profile:
         ):
             if limit is not None and extent * end > 1e-12:
                 jerk = min(jerk, limit / (extent * end))
-        profile: Profile = SCurveTiming(
-            spec.duration, max_jerk=float(jerk) if np.isfinite(jerk) else None
-        )
+        profile = SCurveTiming(spec.duration, max_jerk=float(jerk) if np.isfinite(jerk) else None)
     else:
+        linear, angular = spec.accelerations()
         profile = s_curve_limited(
             spec.length * end,
             spec.angle * end,
             spec.max_linear_speed,
             spec.max_angular_speed,
-            DEFAULT_LINEAR_ACCELERATION,
-            DEFAULT_ANGULAR_ACCELERATION,
+            linear,
+            angular,
             spec.max_linear_jerk,
             spec.max_angular_jerk,
             cap=None if spec.cap is None else np.asarray(spec.cap) / end,
@@ -146,7 +180,9 @@ def s_curve_law(spec: TimingSpec) -> Profile:
 
 
 TIMING_LAWS: dict[str, TimingLaw] = {
-    "quintic": quintic,
-    "speed_limited": speed_limited_law,
-    "s_curve": s_curve_law,
+    "trapezoidal": trapezoidal,
+    "s_curve": s_curve,
 }
+DEFAULT_LAW = "trapezoidal"
+"""The law of a request that names none (a Cartesian request's and a segment's ``speed_profile``
+default, and the default of a program's stretches between stops)."""

@@ -50,3 +50,7 @@ class QuinticTiming:
     def time_at(self, s: np.ndarray) -> np.ndarray:
         """Times [s] at which the profile reaches path parameters ``s``."""
         return self.phase(s) * self.duration
+
+    def switch_times(self) -> np.ndarray:
+        """None: a polynomial is smooth inside (0, duration)."""
+        return np.zeros(0)

@@ -96,6 +96,13 @@ class ConstantJerkPhases:
         )
         self.duration = float(duration)
 
+    def switch_times(self) -> np.ndarray:
+        """Times [s] inside (0, duration) where the jerk steps: every phase boundary of every
+        degree of freedom."""
+        live = self.phase_durations > 0.0
+        times = np.unique(self.starts[live])
+        return times[(times > 0.0) & (times < self.duration)]
+
     def evaluate(self, t: np.ndarray, orders: Sequence[int]) -> list[np.ndarray]:
         """Derivatives ``orders`` (0-3) at times ``t`` ``(N,)`` [s], each ``(N, dof)``."""
         dof = self.jerk.shape[0]
@@ -225,6 +232,11 @@ class SCurveTiming:
     def peaks(self) -> Peaks:
         """Exact largest s' [1/s], |s''| [1/s^2], |s'''| [1/s^3], each ``(1,)``."""
         return self._phases.peaks()
+
+    def switch_times(self) -> np.ndarray:
+        """Times [s] inside (0, duration) where the third derivative of s steps: the boundaries
+        of the phases."""
+        return self._phases.switch_times()
 
 
 DEFAULT_LINEAR_JERK = 10.0

@@ -91,6 +91,10 @@ class GridTiming:
         tau = np.where(denom > 0, 2.0 * ds / np.where(denom > 0, denom, 1.0), 0.0)
         return self.t[i] + tau
 
+    def switch_times(self) -> np.ndarray:
+        """Times [s] where s'' steps: every inner grid point."""
+        return self.t[1:-1].copy()
+
 
 def speed_limited(
     length: float,

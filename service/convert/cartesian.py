@@ -21,10 +21,10 @@ import numpy as np
 from core.budget import Deadline
 from core.cartesian.plan import plan
 from core.cartesian.task import CartesianResult, CartesianTask, PathSpec
-from core.errors import InputError, JointLimit, PlanningError, TooLarge
+from core.errors import InputError, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
-from service import environment
+from service.convert.environment import clearance_diagnostics, collision_check, inline_urdf
 from service.convert.robot import robot_positions
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
 from service.errors import planning_error_body
@@ -45,13 +45,10 @@ PROFILE_POINTS = 256
 """Most points of each plotting profile in the diagnostics."""
 
 
-def _positions(robot: Kinematics, values: list[float], where: str) -> np.ndarray:
-    """``robot_positions`` of ``where.positions``, a failure at ``s`` 0 (start) or 1 (goal)."""
-    try:
-        return robot_positions(robot, values, (where, "positions"))
-    except JointLimit as err:
-        err.s = 0.0 if where == "start" else 1.0
-        raise
+def _joint_positions(robot: Kinematics, values: list[float], where: str) -> np.ndarray:
+    """Positions of ``where`` (``"start"`` or ``"goal"``): ``robot_positions``, a failure at ``s``
+    0 (start) or 1 (goal)."""
+    return robot_positions(robot, values, (where, "positions"), s=0.0 if where == "start" else 1.0)
 
 
 def task_from_spec(
@@ -70,10 +67,10 @@ def task_from_spec(
         max_points: Most points of a response (``samples`` over it is 422 ``too_large``).
         environment_field: Where ``spec.environment`` sits in the request (validation errors).
     """
-    q_start = _positions(robot, spec.start.positions, "start")
+    q_start = _joint_positions(robot, spec.start.positions, "start")
     q_goal = None
     if spec.goal.positions is not None:
-        q_goal = _positions(robot, spec.goal.positions, "goal")
+        q_goal = _joint_positions(robot, spec.goal.positions, "goal")
         T_goal = robot.fk(q_goal)
     elif spec.goal.pose is not None:
         T_goal = spec.goal.pose.as_matrix()
@@ -84,10 +81,9 @@ def task_from_spec(
             f"samples={spec.samples} exceeds the limit of {max_points} points", field=("samples",)
         )
     same_named = {name: getattr(spec, name) for name in _SAME_NAMED}
-    clearance = None  # the environment's checker, for the methods that avoid obstacles
-    if spec.environment is not None:
-        urdf = environment.inline_urdf(spec.robot)
-        clearance = environment.checker(robot, spec.environment, urdf, environment_field)  # type: ignore[arg-type]
+    # The request's one collision object: every answer is checked with it; the methods that avoid
+    # obstacles plan around it when the request has an environment.
+    check = collision_check(robot, spec.environment, inline_urdf(spec.robot), environment_field)  # type: ignore[arg-type]
     shape = spec.path
     path = PathSpec(
         kind=shape.type,
@@ -103,7 +99,8 @@ def task_from_spec(
         position_tolerance=spec.tolerance.position,
         orientation_tolerance=spec.tolerance.orientation,
         deadline=deadline,
-        clearance=clearance,
+        clearance=None if spec.environment is None else check,
+        collision_check=check,
         **same_named,
     )
     task.line()  # bad circle geometry: 422 validation at path.* before any method runs
@@ -137,11 +134,17 @@ def failure_body(err: BaseException) -> dict[str, Any]:
     return {"code": "infeasible", "title": "Planning failed", "s": None, "detail": str(err)}
 
 
-def diagnostics(result: CartesianResult, method: str, compute_time_ms: float) -> dict[str, Any]:
-    """The diagnostics of a Cartesian plan (every method alike; see the module docstring)."""
+def diagnostics(
+    result: CartesianResult,
+    method: str,
+    compute_time_ms: float,
+    unchecked: tuple[str, ...] = (),
+) -> dict[str, Any]:
+    """The diagnostics of a Cartesian plan (every method alike; see the module docstring);
+    ``unchecked``: what the collision check could not see (``unchecked_warnings``)."""
     traj = result.trajectory
     diag = base_diagnostics(traj, method, compute_time_ms)
-    diag["warnings"] = list(result.warnings)
+    diag["warnings"] = [*result.warnings, *unchecked]
     dev = result.deviation
     diag["fraction"] = float(result.fraction)
     diag["max_position_deviation"] = None if dev is None else _finite(dev.max_position)
@@ -151,6 +154,7 @@ def diagnostics(result: CartesianResult, method: str, compute_time_ms: float) ->
         diag["knot_count"] = len(result.knots["s"])
     if result.failure is not None:
         diag["failure"] = failure_body(result.failure)
+    diag.update(clearance_diagnostics(result.clearance, unchecked))
     for key, value in result.diagnostics.items():
         diag.setdefault(key, value)
     if dev is not None:
@@ -187,12 +191,14 @@ def result_body(
     method: str,
     compute_time_ms: float,
     time_format: str = "float",
+    unchecked: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """The response document: the trajectory, its diagnostics and (bounded deviation) ``knots``."""
-    diag = diagnostics(result, method, compute_time_ms)
+    diag = diagnostics(result, method, compute_time_ms, unchecked)
     knots = knots_body(result, time_format)
-    extra: dict[str, Any] = {} if knots is None else {"knots": knots}
-    return trajectory_body(result.trajectory, diag, time_format, **extra)
+    if knots is None:
+        return trajectory_body(result.trajectory, diag, time_format)
+    return trajectory_body(result.trajectory, diag, time_format, knots=knots)
 
 
 def _bins(n: int) -> tuple[np.ndarray, np.ndarray]:

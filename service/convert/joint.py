@@ -26,6 +26,7 @@ from core.kinematics import Dynamics
 from core.limits import JointLimits
 from core.timing.path_constraints import Effort
 from core.trajectory import Trajectory
+from robots.model import Robot
 from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.robot import robot_and_names
 from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
@@ -40,6 +41,7 @@ class JointInputs(NamedTuple):
     motion: PointToPoint
     limits: JointLimits
     joint_names: tuple[str, ...]
+    robot: Robot | None
     effort: Effort | None = None
     dynamics: Dynamics | None = None
     gravity: np.ndarray | None = None
@@ -54,6 +56,7 @@ class SplineInputs(NamedTuple):
     goal_velocity: np.ndarray | None
     limits: JointLimits
     joint_names: tuple[str, ...]
+    robot: Robot | None
     effort: Effort | None = None
     dynamics: Dynamics | None = None
     gravity: np.ndarray | None = None
@@ -96,6 +99,7 @@ def joint_inputs(request: JointTrajectoryRequest) -> JointInputs:
         motion,
         joint_limits(request.limits, robot),
         names,
+        robot,
         effort_inputs(request, robot, dof),
         dynamics_of(robot),
         gravity_of(request, robot),
@@ -122,6 +126,7 @@ def spline_inputs(request: SplineRequest) -> SplineInputs:
         array(request.goal_velocity),
         joint_limits(request.limits, robot),
         names,
+        robot,
         effort_inputs(request, robot, dof),
         dynamics_of(robot),
         gravity_of(request, robot),

@@ -18,6 +18,7 @@ from core.joint.retime import DEFAULT_MAX_DEVIATION, RetimePlan
 from core.kinematics import Dynamics
 from core.limits import JointLimits
 from core.timing.path_constraints import Effort, ToolSpeed, tool_rates
+from robots.model import Robot
 from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.joint import joint_limits
 from service.convert.robot import robot_and_names
@@ -35,6 +36,7 @@ class RetimeInputs(NamedTuple):
     dynamics: Dynamics | None
     gravity: np.ndarray
     joint_names: tuple[str, ...]
+    robot: Robot | None
 
 
 def retime_inputs(body: RetimeRequest) -> RetimeInputs:
@@ -68,6 +70,7 @@ def retime_inputs(body: RetimeRequest) -> RetimeInputs:
         dynamics_of(robot),
         gravity_of(body, robot),
         names,
+        robot,
     )
 
 

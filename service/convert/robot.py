@@ -13,9 +13,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from core.errors import InputError, JointLimit
+from core.errors import InputError
 from core.kinematics import Kinematics
-from core.limits import JointLimits, check_positions
+from core.limits import entry_positions
 from core.trajectory import default_joint_names
 from robots.model import Robot
 from robots.registry import resolve
@@ -60,22 +60,14 @@ def robot_and_names(
 
 
 def robot_positions(
-    robot: Kinematics, values: Sequence[float], field: tuple[str | int, ...]
+    robot: Kinematics,
+    values: Sequence[float],
+    field: tuple[str | int, ...],
+    *,
+    s: float | None = None,
 ) -> np.ndarray:
-    """``values`` as positions of ``robot`` ``(dof,)`` [rad or m]: one per joint (``InputError`` at
-    ``field``) and inside the position limits with the slack of every joint-space check
-    (``core.limits.check_positions``: ``JointLimit`` at ``field + (joint,)``, adding ``joint_name``
-    and its ``limits``)."""
-    q = np.asarray(values, dtype=float)
-    if q.shape != (robot.dof,):
-        where = ".".join(map(str, field))
-        raise InputError(f"{where} needs {robot.dof} values, one per joint", field=field)
-    try:
-        limits = JointLimits(position=robot.position_limits)
-        check_positions(q[None], limits, robot.joint_names, field=field)
-    except JointLimit as err:
-        j = int(err.joint or 0)
-        name, bounds = robot.joint_names[j], robot.position_limits[j].tolist()
-        err.extra.update({"joint_name": name, "limits": bounds})
-        raise
-    return q
+    """``values`` as positions of ``robot`` ``(dof,)`` [rad or m]: the one entry check of every
+    route (``core.limits.entry_positions``: one finite value per joint, ``InputError`` at
+    ``field``; inside the position limits with the slack of every planner, ``JointLimit`` at
+    ``field + (joint,)`` with ``joint_name``, its ``limits`` and ``s``)."""
+    return entry_positions(values, robot.position_limits, robot.joint_names, field, s=s)

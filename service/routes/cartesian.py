@@ -1,7 +1,7 @@
 """POST /v1/trajectories/cartesian: the tool on the straight line from FK(start) to the goal pose.
 
-Thin route: schema -> ``CartesianTask`` (``service.convert.cartesian``) -> ``core.cartesian.plan.plan``
--> response. Every method of API.md is accepted and passed on to the core's dispatch. Plain ``def``:
+Thin route: schema -> ``CartesianTask`` (``service.convert.cartesian``, the request's collision
+object built once) -> ``core.cartesian.plan.plan`` (plan, check, stop before a contact) -> response. Every method of API.md is accepted and passed on to the core's dispatch. Plain ``def``:
 planning is CPU-bound, so FastAPI runs it in its thread pool.
 """
 
@@ -12,8 +12,9 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from robots import registry
-from service import deps, environment
+from service import deps
 from service.convert import cartesian as convert
+from service.convert.environment import inline_urdf, unchecked_warnings
 from service.convert.robot import with_tool
 from service.encoding import json_response
 from service.schemas.cartesian import CartesianRequest, CartesianResponse
@@ -49,11 +50,6 @@ def cartesian_trajectory(
     robot = with_tool(registry.resolve(body.robot), body.tool)
     task = convert.task_from_spec(body, robot, deadline, settings.max_points)
     result, elapsed_ms = convert.run(task, body.method, settings.max_points)
-    result = environment.guard_cartesian(
-        task,
-        result,
-        body.environment,
-        environment.inline_urdf(body.robot),
-        replan=lambda short: convert.run(short, body.method, settings.max_points)[0],
-    )
-    return json_response(convert.result_body(result, body.method, elapsed_ms, time_format))
+    unchecked = unchecked_warnings(robot, body.environment, inline_urdf(body.robot))
+    doc = convert.result_body(result, body.method, elapsed_ms, time_format, unchecked)
+    return json_response(doc)

@@ -18,7 +18,8 @@ from starlette.responses import Response
 from core.budget import Deadline
 from robots import registry
 from robots.collision import link_shapes, robot_setup
-from service import deps, environment
+from service import deps
+from service.convert.environment import collision_check, inline_urdf
 from service.convert.robot import robot_positions, with_tool
 from service.encoding import json_response
 from service.schemas.common import (
@@ -66,7 +67,7 @@ def _distance(robot_ref: Any, body: DistanceRequest, deadline: Deadline) -> Resp
     robot = with_tool(registry.resolve(robot_ref), body.tool)  # checked; no geometry of its own
     q = robot_positions(robot, body.positions, ("positions",))
     deadline.check("distance: loading the robot")
-    check = environment.checker(robot, body.environment, environment.inline_urdf(robot_ref))
+    check = collision_check(robot, body.environment, inline_urdf(robot_ref))
     deadline.check("distance: building the collision model")
     rows = [] if check is None else check.closest_pairs(q, MAX_PAIRS)
     deadline.check("distance: computing the distances")
@@ -104,7 +105,7 @@ def collision_description(robot_ref: Any) -> dict[str, Any]:
     """``collision_geometry`` and ``allowed_self_collisions`` of a robot, as in its description:
     each shape as the check uses it (``robots.collision.link_shapes``), in its link's frame."""
     robot = registry.resolve(robot_ref)
-    geometry, allowed = robot_setup(robot, environment.inline_urdf(robot_ref))
+    geometry, allowed = robot_setup(robot, inline_urdf(robot_ref))
     shapes = [
         {"link": link, "shape": shape, "origin": T.tolist()}
         for link, shape, T in link_shapes(robot, geometry)

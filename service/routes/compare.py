@@ -9,7 +9,6 @@ failure is its row's problem+json, never the request's.
 
 from __future__ import annotations
 
-import functools
 import time
 from typing import Any
 
@@ -18,11 +17,11 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from core.cartesian.methods import METHODS
-from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import PlanningError
 from robots import registry
-from service import deps, environment
+from service import deps
 from service.convert import cartesian as convert
+from service.convert.environment import inline_urdf, unchecked_warnings
 from service.convert.robot import with_tool
 from service.encoding import json_response
 from service.errors import planning_error_body
@@ -38,11 +37,6 @@ RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {"model": CompareResponse, "description": "One row per method"}
 }
 RESPONSES.update(PROBLEM_RESPONSES)
-
-
-def _replan(task: CartesianTask, method: str, max_points: int) -> CartesianResult:
-    """A shorter line planned by the row's method (a partial plan stopping before a contact)."""
-    return convert.run(task, method, max_points)[0]
 
 
 @router.post(
@@ -70,17 +64,13 @@ def compare(
     except PlanningError as err:
         nest(err, TASK)  # the task's fields are at task.* of this body
         raise
+    unchecked = unchecked_warnings(robot, body.task.environment, inline_urdf(body.task.robot))
     rows = []
     for method in methods:
         started = time.perf_counter()
         try:
             deadline.check(f"compare: before {method}")
             result, elapsed_ms = convert.run(task, method, settings.max_points)
-            result = environment.guard_cartesian(
-                task, result, body.task.environment, environment.inline_urdf(body.task.robot),
-                field=("task", "environment"),
-                replan=functools.partial(_replan, method=method, max_points=settings.max_points),
-            )  # fmt: skip
         except PlanningError as err:
             _, problem = planning_error_body(nest(err, TASK), CompareRequest)
             elapsed = (time.perf_counter() - started) * 1e3
@@ -89,7 +79,7 @@ def compare(
                 {"method": method, "ok": False, "error": problem, "diagnostics": diagnostics}
             )
             continue
-        doc = convert.result_body(result, method, elapsed_ms, time_format)
+        doc = convert.result_body(result, method, elapsed_ms, time_format, unchecked)
         row: dict[str, Any] = {"method": method, "ok": True, "diagnostics": doc.pop("diagnostics")}
         if body.include_trajectories:
             row["trajectory"] = doc

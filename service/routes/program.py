@@ -6,7 +6,6 @@ Thin route: schema -> ``ProgramTask`` -> ``core.program.plan.plan_program`` -> r
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from typing import Any
@@ -16,14 +15,20 @@ from fastapi import APIRouter, Depends, Request
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.errors import Collision, InputError, JointLimit, PlanningError, TooLarge
-from core.kinematics import Kinematics
+from core.errors import PlanningError, TooLarge
+from core.kinematics import Clearance, Kinematics
+from core.limits import entry_positions
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
-from robots.model import Robot
-from service import deps, environment
+from service import deps
 from service.convert.cartesian import failure_body
+from service.convert.environment import (
+    clearance_diagnostics,
+    collision_check,
+    inline_urdf,
+    unchecked_warnings,
+)
 from service.convert.robot import with_tool
 from service.encoding import (
     base_diagnostics,
@@ -39,26 +44,20 @@ router = APIRouter(prefix="/v1/trajectories", tags=["program"])
 
 
 def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) -> np.ndarray:
-    q = np.asarray(values, dtype=float)
-    if q.shape != (robot.dof,):
-        raise InputError(f"needs {robot.dof} values, one per joint of the robot", field=loc)
-    lo, hi = robot.position_limits[:, 0], robot.position_limits[:, 1]
-    bad = np.flatnonzero((q < lo) | (q > hi))
-    if bad.size:
-        j = int(bad[0])
-        where = ".".join(str(part) for part in loc)
-        segment = {"segment": loc[1]} if loc[0] == "segments" else {}
-        raise JointLimit(
-            f"{where}[{j}] is outside the position limits of joint '{robot.joint_names[j]}'",
-            field=(*loc, j),
-            joint=j,
-            extra=segment,
-        )
-    return q
+    """Joint positions at ``loc``: one per joint, inside the limits (``entry_positions``); a
+    segment's names its ``segment``."""
+    segment: dict[str, object] = {"segment": loc[1]} if loc[0] == "segments" else {}
+    return entry_positions(values, robot.position_limits, robot.joint_names, loc, extra=segment)
 
 
-def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadline) -> ProgramTask:
-    """The core task of a request: joint arrays checked against the robot."""
+def task_from_request(
+    body: ProgramRequest,
+    robot: Kinematics,
+    deadline: Deadline,
+    check: Clearance | None = None,
+) -> ProgramTask:
+    """The core task of a request: joint arrays checked against the robot; ``check``: the
+    request's collision object."""
     segments = []
     for i, s in enumerate(body.segments):
         loc = ("segments", i, "goal", "positions")
@@ -105,6 +104,7 @@ def task_from_request(body: ProgramRequest, robot: Kinematics, deadline: Deadlin
         samples=body.samples,
         allow_partial=body.allow_partial,
         deadline=deadline,
+        collision_check=check,
     )
 
 
@@ -114,41 +114,20 @@ def _finite(value: Any) -> Any:
     return value
 
 
-def to_rest(planned: ProgramResult, cut: ProgramResult, robot: Robot, body: ProgramRequest) -> Any:
-    """A program cut short by a collision (``allow_partial``) brought to rest: ``planned`` up to
-    the last clear returned point of ``cut``, re-timed to stop there along its own path
-    (``ProgramResult.stop_at``) and checked again; earlier by ``STOP_SHRINK`` of the time when
-    that one is not clear (``STOP_TRIES`` in all). None clear (or the time budget spent):
-    ``cut``, ending in motion (it says so in a warning)."""
-    if planned.stop_at is None or cut.failure is None:
-        return cut
-    t = float(cut.trajectory.times[-1])
-    for _ in range(environment.STOP_TRIES):
-        try:
-            stopped = planned.stop_at(t, cut.failure)
-        except PlanningError:  # the time budget, an S-curve Ruckig refuses: keep the cut
-            break
-        if stopped is None:
-            break
-        try:
-            checked = environment.guard_program(stopped, robot, body)
-        except Collision:
-            checked = None
-        if checked is not None and checked.failure is stopped.failure:
-            return dataclasses.replace(checked, stop_at=None)
-        t *= environment.STOP_SHRINK
-    return cut
-
-
 def result_body(
-    result: ProgramResult, compute_time_ms: float, time_format: str = "float"
+    result: ProgramResult,
+    compute_time_ms: float,
+    time_format: str = "float",
+    unchecked: tuple[str, ...] = (),
 ) -> dict[str, Any]:
-    """The response document: trajectory, diagnostics, ``segments``."""
+    """The response document: trajectory, diagnostics, ``segments``; ``unchecked``: what the
+    collision check could not see."""
     traj = result.trajectory
     diag = base_diagnostics(traj, "program", compute_time_ms)
-    diag["warnings"] = list(result.warnings)
+    diag["warnings"] = [*result.warnings, *unchecked]
     diag["fraction"] = result.fraction
     diag.update({k: _finite(v) for k, v in result.diagnostics.items()})
+    diag.update(clearance_diagnostics(result.clearance, unchecked))
     if result.failure is not None:
         err: PlanningError = result.failure
         diag["failure"] = {"segment": err.extra.get("segment"), **failure_body(err)}
@@ -220,16 +199,15 @@ def program_trajectory(
 ) -> Response:
     settings = request.app.state.settings
     robot = with_tool(registry.resolve(body.robot), body.tool)
-    task = task_from_request(body, robot, deadline)
+    urdf = inline_urdf(body.robot)
+    check = collision_check(robot, body.environment, urdf)
+    task = task_from_request(body, robot, deadline, check)
     if body.samples is not None and body.samples > settings.max_points:
         raise TooLarge(
             f"samples exceeds the limit of {settings.max_points} points", field=("samples",)
         )
     started = time.perf_counter()
-    planned = plan_program(task)
-    result = environment.guard_program(planned, robot, body)
-    if result.failure is not None and result.failure is not planned.failure:
-        result = to_rest(planned, result, robot, body)
+    result = plan_program(task)
     elapsed_ms = (time.perf_counter() - started) * 1e3
     check_finite(result.trajectory)
     if len(result.trajectory.times) > settings.max_points:
@@ -238,4 +216,5 @@ def program_trajectory(
             f"{settings.max_points}; give a larger sample_period",
             field=("sample_period",),
         )
-    return json_response(result_body(result, elapsed_ms, time_format))
+    unchecked = unchecked_warnings(robot, body.environment, urdf)
+    return json_response(result_body(result, elapsed_ms, time_format, unchecked))

@@ -13,8 +13,9 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from core.joint.retime import plan_retime
-from service import deps, dispatch, environment
+from service import deps, dispatch
 from service.convert import joint as convert
+from service.convert.environment import clearance_diagnostics, joint_request_check
 from service.convert.retime import retime_diagnostics, retime_inputs
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
@@ -42,6 +43,7 @@ async def retime_trajectory(
 
     def respond() -> Response:
         inputs = retime_inputs(body)
+        check, unchecked = joint_request_check(inputs.robot, body.robot, body.environment)
         plan = plan_retime(
             inputs.waypoints,
             inputs.limits,
@@ -56,16 +58,16 @@ async def retime_trajectory(
             max_points=request.app.state.settings.max_points,
             joint_names=inputs.joint_names,
             deadline=deadline,
+            collision_check=check,
         )
-        checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
-            checked.trajectory,
+            plan.trajectory,
             body.path,
-            checked.warnings,
+            unchecked,
             started,
             time_format,
             **retime_diagnostics(plan),
-            **checked.diagnostics,
+            **clearance_diagnostics(plan.clearance, unchecked),
         )
 
     return await dispatch.run_plan(respond, None)

@@ -11,13 +11,14 @@ from fastapi import APIRouter, Depends, Path
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.cartesian.joint_limits import worst_joint
 from core.errors import InputError, JointLimit, Unreachable
+from core.limits import worst_joint
 from robots import ik as robot_ik
 from robots import registry
 from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
-from service import deps, environment
+from service import deps
+from service.convert.environment import inline_urdf
 from service.convert.fk import fk_rows
 from service.convert.robot import robot_positions, with_tool
 from service.encoding import json_response
@@ -111,7 +112,7 @@ def _detail(robot: Robot, urdf: str | None = None) -> RobotDetail:
 )
 def describe_robot(body: DescribeRequest) -> RobotDetail:
     robot = with_tool(registry.resolve(body.robot), body.tool)
-    return _detail(robot, environment.inline_urdf(body.robot))
+    return _detail(robot, inline_urdf(body.robot))
 
 
 @router.get(

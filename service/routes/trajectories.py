@@ -16,8 +16,9 @@ from starlette.responses import Response
 from core.budget import Deadline
 from core.joint.point_to_point import plan_joint
 from core.joint.splines import plan_spline
-from service import deps, dispatch, environment
+from service import deps, dispatch
 from service.convert import joint as convert
+from service.convert.environment import clearance_diagnostics, joint_request_check
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
     TimeFormat,
@@ -46,6 +47,7 @@ async def joint_trajectory(
 
     def respond() -> Response:
         inputs = convert.joint_inputs(body)
+        check, unchecked = joint_request_check(inputs.robot, body.robot, body.environment)
         plan = plan_joint(
             body.profile,
             inputs.motion,
@@ -57,16 +59,16 @@ async def joint_trajectory(
             joint_names=inputs.joint_names,
             deadline=deadline,
             effort=inputs.effort,
+            collision_check=check,
         )
-        checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
-            checked.trajectory,
+            plan.trajectory,
             body.profile,
-            (*plan.warnings, *checked.warnings),
+            (*plan.warnings, *unchecked),
             started,
             time_format,
             **convert.effort_diagnostics(inputs, plan),
-            **checked.diagnostics,
+            **clearance_diagnostics(plan.clearance, unchecked),
         )
 
     return await dispatch.run_plan(
@@ -89,6 +91,7 @@ async def spline_trajectory(
 
     def respond() -> Response:
         inputs = convert.spline_inputs(body)
+        check, unchecked = joint_request_check(inputs.robot, body.robot, body.environment)
         settings = request.app.state.settings
         plan = plan_spline(
             inputs.waypoints,
@@ -103,18 +106,18 @@ async def spline_trajectory(
             joint_names=inputs.joint_names,
             deadline=deadline,
             effort=inputs.effort,
+            collision_check=check,
         )
-        checked = environment.guard_request(body, plan.trajectory)
         return convert.trajectory_response(
-            checked.trajectory,
+            plan.trajectory,
             "spline",
-            (*plan.warnings, *checked.warnings),
+            (*plan.warnings, *unchecked),
             started,
             time_format,
             boundary=body.boundary,
             knot_times=plan.knot_times,
             **convert.effort_diagnostics(inputs, plan),
-            **checked.diagnostics,
+            **clearance_diagnostics(plan.clearance, unchecked),
         )
 
     return await dispatch.run_plan(

@@ -8,13 +8,13 @@ on the robot (``start.positions``, ``goal.positions``) are checked in ``service/
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from core.cartesian.methods import METHODS
-from core.cartesian.task import SPEED_PROFILES
 from core.path import PATHS
+from core.timing import TIMING_LAWS
 from service.schemas.common import (
     MAX_DURATION,
     TOOL_FIELD,
@@ -28,10 +28,11 @@ from service.schemas.common import (
     not_with,
 )
 from service.schemas.environment import Environment
+from service.schemas.registry import RegistryKey
 
-Method = Literal[tuple(METHODS)]  # type: ignore[valid-type]
-"""The method names, built from the registry ``core.cartesian.methods.METHODS``: a method added
-there is accepted here, so the API cannot drift from the code."""
+Method = Annotated[str, RegistryKey(METHODS, "method")]
+"""The method names: the keys of ``core.cartesian.methods.METHODS`` (read at validation and at
+schema generation): a method added there is accepted here, so the API cannot drift from the code."""
 
 MAX_LINEAR_SPEED = 10.0
 """Largest ``max_linear_speed`` [m/s] accepted."""
@@ -41,11 +42,15 @@ MAX_LINEAR_JERK = 1e4
 """Largest ``max_linear_jerk`` [m/s^3] accepted."""
 MAX_ANGULAR_JERK = 1e5
 """Largest ``max_angular_jerk`` [rad/s^3] accepted."""
+MAX_LINEAR_ACCELERATION = 1e3
+"""Largest ``max_linear_acceleration`` [m/s^2] accepted."""
+MAX_ANGULAR_ACCELERATION = 1e4
+"""Largest ``max_angular_acceleration`` [rad/s^2] accepted."""
 
-PathType = Literal[tuple(PATHS)]  # type: ignore[valid-type]
-"""The path shapes, built from the registry ``core.path.PATHS`` (``line``, ``circ``)."""
-SpeedProfile = Literal[SPEED_PROFILES]  # type: ignore[valid-type]
-"""The path-speed profiles (``core.cartesian.task.SPEED_PROFILES``)."""
+PathType = Annotated[str, RegistryKey(PATHS, "path.type")]
+"""The path shapes: the keys of ``core.path.PATHS`` (``line``, ``circ``)."""
+SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile")]
+"""The timing laws: the keys of ``core.timing.TIMING_LAWS`` (``trapezoidal``, ``s_curve``)."""
 Point3 = Annotated[
     list[Position],
     Field(min_length=3, max_length=3, description="A point [x, y, z] in [m] in the base frame."),
@@ -56,9 +61,10 @@ class PathShape(StrictModel):
     """The tool path: the straight line (default), or a circle arc through ``interim`` or about
     ``center`` (the shorter arc); orientation by slerp either way."""
 
-    type: PathType = Field(  # type: ignore[valid-type]
+    type: PathType = Field(
         default="line",
-        description="line (default) | circ: the tool point on the circle arc from FK(start) to the goal.",
+        description="line (default) | circ: the tool point on the circle arc from FK(start) to "
+        "the goal | any other shape of core.path.PATHS.",
     )
     interim: Point3 | None = Field(
         default=None,
@@ -72,8 +78,8 @@ class PathShape(StrictModel):
 
     @model_validator(mode="after")
     def _circle(self) -> Any:
-        if self.type == "line" and (self.interim is not None or self.center is not None):
-            raise ValueError("a line takes no interim or center")
+        if self.type != "circ" and (self.interim is not None or self.center is not None):
+            raise ValueError(f"a {self.type} path takes no interim or center")
         if self.type == "circ" and (self.interim is None) == (self.center is None):
             raise ValueError("a circ path needs exactly one of interim or center")
         return self
@@ -165,6 +171,20 @@ class CartesianTaskSpec(StrictModel):
         le=MAX_ANGULAR_SPEED,
         description="Tool angular speed limit [rad/s], 1e-6 <= w <= 100.",
     )
+    max_linear_acceleration: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_LINEAR_ACCELERATION,
+        description="Tool acceleration limit [m/s^2] of the speed-limited timing, 1e-6 to 1e3 "
+        "(default 1). Not together with duration.",
+    )
+    max_angular_acceleration: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_ANGULAR_ACCELERATION,
+        description="Tool angular acceleration limit [rad/s^2], 1e-6 to 1e4 (default 2). Not "
+        "together with duration.",
+    )
     sample_period: float | None = Field(
         default=None,
         gt=0,
@@ -200,7 +220,7 @@ class CartesianTaskSpec(StrictModel):
         description='The path shape: {"type": "line"} (default) | {"type": "circ", "interim": '
         '[x, y, z]} | {"type": "circ", "center": [x, y, z]}; bad circle geometry is 422 at path.*.',
     )
-    speed_profile: SpeedProfile = Field(  # type: ignore[valid-type]
+    speed_profile: SpeedProfile = Field(
         default="trapezoidal",
         description="trapezoidal (default: speed-limited trapezoid, or quintic with a duration) | "
         "s_curve: path acceleration continuous, path jerk within max_linear_jerk/max_angular_jerk; "
@@ -226,10 +246,15 @@ class CartesianTaskSpec(StrictModel):
         description="QP solver of resolved_rate_dls (a qpsolvers name; default osqp).",
     )
 
-    @field_validator("max_linear_speed", "max_angular_speed")
+    @field_validator(
+        "max_linear_speed",
+        "max_angular_speed",
+        "max_linear_acceleration",
+        "max_angular_acceleration",
+    )
     @classmethod
     def _speeds_not_with_duration(cls, value: Any, info: ValidationInfo) -> Any:
-        message = "give duration or max_linear_speed/max_angular_speed, not both"
+        message = "give duration or tool speed/acceleration limits, not both"
         return not_with(value, info, ("duration",), message)
 
     @field_validator("samples")

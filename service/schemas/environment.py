@@ -3,7 +3,7 @@
 Every size is bounded (``MIN_SIZE`` to ``MAX_SIZE``); names are unique; a halfspace normal must be unit to 1e-3
 (then normalized) and has no pose; at most ``MAX_OBSTACLES`` obstacles. Names that must match the
 robot (allowed pairs, obstacle names that clash with link names) are checked in
-``service/environment.py``, which knows the robot.
+``service/convert/environment.py``, which knows the robot.
 """
 
 from __future__ import annotations

@@ -11,9 +11,14 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
-from core.program.segments import MAX_SEGMENTS
+from core.cartesian.methods import METHODS
+from core.joint.profiles import PROFILES
+from core.program.segments import MAX_SEGMENTS, ptp_profile
+from core.timing import TIMING_LAWS
 from service.schemas.cartesian import (
+    MAX_ANGULAR_ACCELERATION,
     MAX_ANGULAR_SPEED,
+    MAX_LINEAR_ACCELERATION,
     MAX_LINEAR_SPEED,
     CartesianGoal,
     Tolerance,
@@ -31,6 +36,7 @@ from service.schemas.common import (
     not_with,
 )
 from service.schemas.environment import Environment
+from service.schemas.registry import RegistryKey
 
 MAX_LINEAR_JERK = 1e5
 """Largest ``max_linear_jerk`` [m/s^3] accepted."""
@@ -44,6 +50,13 @@ Point3 = Annotated[
     Field(min_length=3, max_length=3, description="A point [x, y, z] in [m] in the base frame."),
 ]
 Scale = Annotated[float, Field(gt=0.0, le=1.0)]
+PtpProfile = Annotated[str, RegistryKey(PROFILES, "profile", ptp_profile)]
+"""The joint profiles a PTP between stops may take: the keys of ``core.joint.profiles.PROFILES``
+held to acceleration limits (not ``linear``, whose velocity steps)."""
+SegmentMethod = Annotated[str, RegistryKey(METHODS, "method")]
+"""A LIN/CIRC segment's method: any key of ``core.cartesian.methods.METHODS``."""
+SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile")]
+"""A LIN/CIRC segment's timing law: a key of ``core.timing.TIMING_LAWS``."""
 BlendRadius = Annotated[
     float,
     Field(
@@ -105,7 +118,7 @@ class PtpSegment(_Common):
     goal: PtpGoal = Field(
         description="Goal joint positions, or a tool pose (IK nearest the joints)."
     )
-    profile: Literal["trapezoidal", "quintic", "jerk_limited"] | None = Field(
+    profile: PtpProfile | None = Field(
         default=None,
         description="Joint profile of a PTP between stops (no blend into or out of it), rest to "
         "rest, synchronous: every joint follows one normalized profile s(t), so the joint path "
@@ -136,13 +149,16 @@ class _CartesianSegment(_Common):
         le=MAX_ANGULAR_SPEED,
         description="Tool angular speed limit [rad/s] (default 1).",
     )
-    method: Literal["sampled", "bounded_deviation"] = Field(
+    method: SegmentMethod = Field(
         default="sampled",
-        description="sampled (default): the joint spline through IK solutions every 10 "
-        "tolerances along the path (about 1e-6 m off it) | bounded_deviation: through as few of "
-        "them as keep the path within 0.8 of `tolerance` (segment diagnostics.knot_count).",
+        description="The Cartesian method that plans the segment's joint path on its line or arc "
+        "(any method of /v1/trajectories/cartesian): its returned points, every 10 tolerances "
+        "along the path, are the segment's joint path. sampled (default): IK at each (about "
+        "1e-8 m off the path) | bounded_deviation: as few IK knots as keep the path within its "
+        "`tolerance` (segment diagnostics.knot_count) | bounded_deviation_nlp, resolved_rate, "
+        "resolved_rate_dls.",
     )
-    speed_profile: Literal["trapezoidal", "s_curve"] = Field(
+    speed_profile: SpeedProfile = Field(
         default="trapezoidal",
         description="`trapezoidal` (default): the program's time-optimal timing under the joint "
         "velocity/acceleration caps and the tool speed limits (path acceleration continuous, "
@@ -165,6 +181,18 @@ class _CartesianSegment(_Common):
         gt=0.0,
         le=MAX_ANGULAR_JERK,
         description="s_curve: tool angular jerk limit [rad/s^3] (default 20).",
+    )
+    max_linear_acceleration: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_LINEAR_ACCELERATION,
+        description="Tool acceleration limit [m/s^2] along the segment and its blends (default 1).",
+    )
+    max_angular_acceleration: float | None = Field(
+        default=None,
+        ge=1e-6,
+        le=MAX_ANGULAR_ACCELERATION,
+        description="Tool angular acceleration limit [rad/s^2] (default 2).",
     )
     tolerance: Tolerance = Field(
         default_factory=Tolerance,

@@ -31,13 +31,15 @@ from service.schemas.common import (
     Tool,
 )
 from service.schemas.environment import Environment
+from service.schemas.registry import RegistryKey
 
 MAX_WAYPOINTS = 10_000
 """Most waypoints of one spline request."""
 
 MAX_JERK = 1e8
 """Largest joint jerk limit [rad/s^3 or m/s^3] accepted."""
-Profile = Literal[tuple(PROFILES)]  # type: ignore[valid-type]
+Profile = Annotated[str, RegistryKey(PROFILES, "profile")]
+"""The joint profiles: the keys of ``core.joint.profiles.PROFILES``."""
 Boundary = Literal["clamped", "natural", "not-a-knot"]
 KnotTime = Annotated[float, Field(ge=0.0, le=MAX_DURATION)]
 

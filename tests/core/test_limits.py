@@ -8,12 +8,11 @@ import pytest
 
 from core.errors import InputError, JointLimit, JointRateLimit
 from core.limits import (
-    POSITION_TOLERANCE,
-    RATE_TOLERANCE,
+    LIMIT_SLACK,
     JointLimits,
     check_positions,
     check_rates,
-    outside_position_limits,
+    outside,
     over_rate_limit,
 )
 
@@ -21,16 +20,19 @@ NAMES = ("a", "b")
 POSITION = np.array([[-1.0, 1.0], [0.0, 2.0]])
 
 
-def test_position_mask_has_an_absolute_slack() -> None:
+def test_position_mask_has_the_one_slack_of_every_planner() -> None:
+    """Was an absolute 1e-9 here and LIMIT_SLACK of the range in the Cartesian planners (issue
+    23: one check, one slack): both joints span 2, so the slack is 2 LIMIT_SLACK."""
+    slack = 2.0 * LIMIT_SLACK
     q = np.array(
         [
-            [1.0 + 0.5 * POSITION_TOLERANCE, 2.0],
-            [-1.0, -2.0 * POSITION_TOLERANCE],
-            [1.0 + 2.0 * POSITION_TOLERANCE, 0.0],
+            [1.0 + 0.5 * slack, 2.0],
+            [-1.0, -2.0 * slack],
+            [1.0 + 2.0 * slack, 0.0],
         ]
     )
     np.testing.assert_array_equal(
-        outside_position_limits(q, POSITION), [[False, False], [False, True], [True, False]]
+        outside(q, POSITION), [[False, False], [False, True], [True, False]]
     )
     limits = JointLimits(position=POSITION)
     with pytest.raises(JointLimit) as err:
@@ -43,9 +45,7 @@ def test_position_mask_has_an_absolute_slack() -> None:
 
 def test_rate_mask_has_a_relative_slack() -> None:
     limit = np.array([2.0, np.inf])
-    values = np.array(
-        [[2.0 * (1 + 0.5 * RATE_TOLERANCE), -1e300], [-2.0 * (1 + 2 * RATE_TOLERANCE), 0]]
-    )
+    values = np.array([[2.0 * (1 + 0.5 * LIMIT_SLACK), -1e300], [-2.0 * (1 + 2 * LIMIT_SLACK), 0]])
     np.testing.assert_array_equal(over_rate_limit(values, limit), [[False, False], [True, False]])
 
 

@@ -149,7 +149,7 @@ class CountingChecker(collision.CollisionChecker):
 
 @pytest.fixture
 def counted(monkeypatch: pytest.MonkeyPatch) -> type[CountingChecker]:
-    from service import environment
+    from service.convert import environment
 
     monkeypatch.setattr(environment, "CollisionChecker", CountingChecker)
     CountingChecker.built = 0

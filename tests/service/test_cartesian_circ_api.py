@@ -7,7 +7,6 @@ forward kinematics of the returned joints (``fk_many``), never from the diagnost
 from __future__ import annotations
 
 import math
-from typing import get_args
 
 import numpy as np
 import pytest
@@ -16,6 +15,7 @@ from scipy.spatial.transform import Rotation
 from core.path import PATHS
 from robots import registry
 from service.schemas.cartesian import PathType
+from service.schemas.registry import names_of
 from tests.ros_rules import check_ros_trajectory
 from tests.service.conftest import pose_body
 
@@ -55,7 +55,7 @@ def _problem(response, code: str = "validation") -> dict:
 
 
 def test_schema_path_types_are_the_registry() -> None:
-    assert set(get_args(PathType)) == set(PATHS) == {"line", "circ"}
+    assert set(names_of(PathType)) == set(PATHS) == {"line", "circ"}
 
 
 @pytest.mark.parametrize("how", ["center", "interim"])

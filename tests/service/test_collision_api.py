@@ -12,7 +12,7 @@ from robots import registry
 from robots.collision import MAX_CAPSULES
 from robots.geometry import ROBOT_GEOMETRY
 from service.app import create_app
-from service.environment import checker
+from service.convert.environment import collision_check as checker
 from service.routes.collision import collision_description
 from service.schemas.common import Pose
 from service.schemas.environment import Environment
@@ -701,3 +701,65 @@ def test_min_distances_skips_only_boxes_that_cannot_be_the_smallest() -> None:
         exact = check.distances(qs).min(axis=1)
         assert (exact < 0).any() and (exact > 0).any()
         np.testing.assert_allclose(check.min_distances(qs), exact, rtol=0, atol=1e-12)
+
+
+def _arc_share(p, start, interim, goal, center) -> float:
+    """The share of the arc from ``start`` through ``interim`` to ``goal`` about ``center`` swept
+    when the tool is at ``p``: its angle from the start over the arc's angle (in [0, 2 pi))."""
+    u = start - center
+    normal = np.cross(u, interim - center)
+    v = np.cross(normal / np.linalg.norm(normal), u)
+
+    def angle(x: np.ndarray) -> float:
+        r = x - center
+        return float(np.arctan2(r @ v, r @ u)) % (2 * np.pi)
+
+    return angle(p) / angle(goal)
+
+
+def _tool_at(points: list[dict], t: float) -> np.ndarray:
+    """The tool position (pinocchio FK) at time ``t``, joints linear between returned points (as
+    the continuous check assumes)."""
+    import pinocchio as pin
+
+    times = np.array([p["time_from_start"] for p in points])
+    qs = np.array([p["positions"] for p in points])
+    q = np.array([np.interp(t, times, qs[:, j]) for j in range(qs.shape[1])])
+    data = UR5.model.createData()
+    pin.framesForwardKinematics(UR5.model, data, q)
+    return data.oMf[UR5.model.getFrameId(UR5.tip_frame)].translation.copy()
+
+
+@pytest.mark.parametrize("route", ["cartesian", "program"])
+def test_a_contact_on_an_arc_is_reported_at_the_tools_own_s(client, route) -> None:
+    """Was: s from the projection on the chord (0.179 where the tool was at 0.219). The tool on a
+    half circle of radius 0.1 m meets a ball a third of the way along: the reported ``s`` is the
+    share of the arc the tool has swept at the reported time (pinocchio FK of the returned motion
+    there, against the arc's own geometry), within 0.01."""
+    T0 = UR5.fk(UR5.home)
+    p0 = T0[:3, 3]
+    center = p0 + np.array([0.1, 0.0, 0.0])
+    goal, interim = p0 + np.array([0.2, 0.0, 0.0]), p0 + np.array([0.1, 0.1, 0.0])
+    phi = np.pi / 3  # the ball sits 60 degrees along, just outside the circle
+    ball_at = center + 0.13 * np.array([-np.cos(phi), np.sin(phi), 0.0])
+    T1 = T0.copy()
+    T1[:3, 3] = goal
+    env = {"obstacles": [ball("ball", ball_at, 0.02)]}
+    if route == "cartesian":
+        body = lin_body(goal - p0, environment=env, samples=100)
+        body["path"] = {"type": "circ", "interim": interim.tolist()}
+        url = "/v1/trajectories/cartesian"
+    else:
+        arc = {"type": "circ", "goal": {"pose": Pose.from_matrix(T1).model_dump()},
+               "interim": interim.tolist()}  # fmt: skip
+        body = {"robot": "ur5", "start": {"positions": HOME}, "segments": [arc],
+                "environment": env}  # fmt: skip
+        url = "/v1/trajectories/program"
+    err = problem(client.post(url, json=body), 422, "collision")
+    assert err["links"][1] == "ball"
+    body["environment"] = None  # the same motion without the ball: where was the tool then?
+    free = client.post(url, json=body).json()
+    tool = _tool_at(free["points"], err["time_from_start"])
+    share = _arc_share(tool, p0, interim, goal, center)
+    assert 0.1 < share < 0.5
+    assert err["s"] == pytest.approx(share, abs=0.01)

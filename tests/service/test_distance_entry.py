@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import pytest
 from fastapi.testclient import TestClient
 
-from core.limits import POSITION_TOLERANCE
+from core.limits import LIMIT_SLACK
 from service.app import create_app
 from service.settings import Settings
 from tests.service.helpers import needs_registry, problem
@@ -51,7 +51,7 @@ OBSTACLES = [
 
 @needs_registry
 @pytest.mark.parametrize("url", ["/v1/robots/ur5/distance", "/v1/distance"])
-@pytest.mark.parametrize("excess", [0.5 * POSITION_TOLERANCE, 1e-6, 1.0])
+@pytest.mark.parametrize("excess", [0.5 * LIMIT_SLACK, 1e-6, 1.0])
 def test_positions_outside_the_limits_as_every_planning_route(
     client: TestClient, url: str, excess: float
 ) -> None:
@@ -65,7 +65,7 @@ def test_positions_outside_the_limits_as_every_planning_route(
             "goal": {"positions": UR5}, "duration": 10.0, "samples": 3}  # fmt: skip
     planned = client.post("/v1/trajectories/joint", json=move)
     assert answer.status_code == planned.status_code, (answer.text, planned.text)
-    if excess > POSITION_TOLERANCE:
+    if excess > LIMIT_SLACK:
         err = problem(answer, 422, "joint_limit")
         assert err["joint"] == 1 and err["errors"][0]["loc"] == ["body", "positions", 1], err
         assert err["joint_name"] == "shoulder_lift_joint"

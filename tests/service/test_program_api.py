@@ -6,7 +6,6 @@ segment ends are compared with the single-move endpoint (/v1/trajectories/cartes
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 
@@ -15,15 +14,9 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
-from core.errors import Collision, TimeBudgetExceeded
 from core.geometry.so3 import pose_to_matrix
-from core.program.plan import plan_program
-from core.program.segments import ProgramTask, Segment
-from core.trajectory import Trajectory
 from robots import registry
-from service import environment
 from service.app import create_app
-from service.routes.program import to_rest
 from service.schemas.program import ProgramResponse
 from service.settings import Settings
 from tests.ros_rules import check_ros_trajectory
@@ -410,53 +403,3 @@ def test_a_program_cut_by_a_collision_comes_to_rest_on_its_path(client, second):
     assert diag["fraction"] == pytest.approx((1 + share) / 2, abs=1e-3)
     assert diag["min_clearance"] >= 0.0
     assert diag["clearance_profile"]["time_from_start"][-1] == got.times[-1]
-
-
-def test_to_rest_tries_earlier_stops_and_else_keeps_the_moving_cut(monkeypatch):
-    """``to_rest``: a stop whose re-check finds a contact is tried again 10 % earlier (at most
-    ``STOP_TRIES`` stops); with no clear stop, or the time budget spent, the moving cut (and its
-    warning) is the answer."""
-    goal = T0.copy()
-    goal[:3, 3] += [0.1, 0.0, 0.0]
-    planned = plan_program(ProgramTask(UR5, np.array(HOME), (Segment("lin", goal_pose=goal),)))
-    tr = planned.trajectory
-    k = len(tr.times) // 2
-    moving = Trajectory(
-        tr.times[:k], tr.positions[:k], tr.velocities[:k], tr.accelerations[:k], tr.joint_names
-    )
-    contact = Collision("a contact ahead", extra={"time_from_start": float(tr.times[k])})
-    cut = dataclasses.replace(planned, failure=contact, trajectory=moving)
-    asked: list[float] = []
-
-    def stop_at(t: float, failure: Collision):
-        asked.append(t)
-        return planned.stop_at(t, failure)
-
-    calls = {"n": 0}
-
-    def guard(result, robot, body):  # a contact on the first two re-checks
-        calls["n"] += 1
-        if calls["n"] <= 2:
-            return dataclasses.replace(result, failure=Collision("again"))
-        return result
-
-    monkeypatch.setattr(environment, "guard_program", guard)
-    probe = dataclasses.replace(planned, stop_at=stop_at)
-    out = to_rest(probe, cut, UR5, None)
-    end = float(moving.times[-1])
-    assert asked == pytest.approx([end, 0.9 * end, 0.81 * end], rel=1e-12)
-    assert out.failure is contact and out.stop_at is None
-    # stopped where the plan was at 0.81 of the cut's time: short of where the cut ended
-    done = [
-        UR5.fk(q)[0, 3] - T0[0, 3] for q in (out.trajectory.positions[-1], moving.positions[-1])
-    ]
-    assert 0.0 < done[0] < done[1]
-    assert np.array_equal(out.trajectory.velocities[-1], np.zeros(6))
-    calls["n"] = -100  # never clear: the moving cut
-    assert to_rest(probe, cut, UR5, None) is cut
-    assert len(asked) == 3 + environment.STOP_TRIES
-
-    def expired(t: float, failure: Collision):
-        raise TimeBudgetExceeded("bringing the program to rest exceeded the budget")
-
-    assert to_rest(dataclasses.replace(planned, stop_at=expired), cut, UR5, None) is cut

@@ -26,12 +26,12 @@ from core.errors import (
     Infeasible,
 )
 from core.kinematics import Kinematics
-from core.path.line import StraightLine
+from core.path.base import Path
 
 
 def taylor_knots(
     kin: Kinematics,
-    line: StraightLine,
+    line: Path,
     q_start: np.ndarray,
     q_goal: np.ndarray,
     position_tolerance: float,

@@ -29,7 +29,6 @@ from typing import Any, cast
 import numpy as np
 
 from core.cartesian.ik_on_path import goal_configuration
-from core.cartesian.joint_limits import inside
 from core.cartesian.knot_nlp import (
     ACCEPT,
     COSTS,
@@ -67,7 +66,8 @@ from core.errors import (
     TimeBudgetExceeded,
 )
 from core.kinematics import SymbolicKinematics
-from core.path.line import StraightLine
+from core.limits import inside
+from core.path.base import Path
 
 AVOID_ROUNDS = 6
 """SQP rounds per knot count when avoiding obstacles (clearance relinearized at each solution)."""
@@ -161,7 +161,7 @@ class _KnotSearch:
     def __init__(
         self,
         task: CartesianTask,
-        line: StraightLine,
+        line: Path,
         taylor: Knots,
         checks: int,
         cost: str,
@@ -176,7 +176,7 @@ class _KnotSearch:
         with SYMBOLIC_LOCK:
             self.deviation = deviation_function(
                 cast(SymbolicKinematics, task.robot).fk_casadi(),
-                line,
+                cast(Any, line),  # a line or an arc (the registry's shapes)
                 task.position_tolerance,
                 task.orientation_tolerance,
             )

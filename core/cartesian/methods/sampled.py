@@ -16,7 +16,6 @@ import numpy as np
 
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
-from core.cartesian.joint_limits import inside, over_speed
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -26,7 +25,6 @@ from core.cartesian.walk import (
     GOAL_BRANCH_WARNING,
     GOAL_SNAP,
     MIN_STEP,
-    SINGULAR_VALUE_THRESHOLD,
     TWO_PI,
     LineWalk,
     Seed,
@@ -39,7 +37,9 @@ from core.errors import (
     Singularity,
 )
 from core.geometry import so3
-from core.path.line import StraightLine
+from core.kinematics import SINGULAR_VALUE_THRESHOLD
+from core.limits import inside, over_speed
+from core.path.base import Path
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS
 
 _MAX_RETIMES = 4
@@ -55,9 +55,7 @@ BATCH_DAMPING = 1e-12
 """Damping of the batched Newton steps (regularization only: singular points go the one-point way)."""
 
 
-def solve_on_line(
-    task: CartesianTask, line: StraightLine, walk: LineWalk, s: np.ndarray
-) -> np.ndarray:
+def solve_on_line(task: CartesianTask, line: Path, walk: LineWalk, s: np.ndarray) -> np.ndarray:
     """Joint positions ``(N, dof)`` on the line at ``s`` (N,), on the walk's branch: a point of the
     walk is reused; any other is solved by IK seeded from the walk point before it (then after it).
     Raises the failure (with its s) of a point that cannot be solved on the branch."""
@@ -182,7 +180,7 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
 
 
 def _densified(
-    task: CartesianTask, line: StraightLine, walk: LineWalk, failure: PlanningError | None
+    task: CartesianTask, line: Path, walk: LineWalk, failure: PlanningError | None
 ) -> CartesianResult:
     """``_timed_result``; when the request left the sampling to the service (neither ``samples``
     nor ``sample_period``) and interpolation between the points strays over the tolerance, the
@@ -206,7 +204,7 @@ def _densified(
 
 
 def _timed_result(
-    task: CartesianTask, line: StraightLine, walk: LineWalk, failure: PlanningError | None
+    task: CartesianTask, line: Path, walk: LineWalk, failure: PlanningError | None
 ) -> CartesianResult:
     robot = task.robot
     grid_s, grid_rates = walk.s, walk.rates

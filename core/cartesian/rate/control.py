@@ -21,7 +21,7 @@ T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nom
    ``position_xy``).
 
    - ``resolved_rate`` (the notes' sec. 7.2): ``J^-1 V`` (square) or the least-squares ``J^+ V``.
-     It refuses to step where the smallest singular value is below ``PINV_SINGULAR_THRESHOLD``
+     It refuses to step where the smallest singular value is below ``core.kinematics.SINGULAR_VALUE_THRESHOLD``
      (``Singularity``), where a rate exceeds its limit (``JointRateLimit``, the notes' warning) or
      where the step would leave the position limits (``JointLimit``), each with ``s``.
    - ``resolved_rate_dls``: the QP of ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at
@@ -90,7 +90,7 @@ from core.errors import (
 )
 from core.kinematics import task_rows
 from core.path import Path
-from core.timing import Profile
+from core.timing import PathLaw as Profile
 
 FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
@@ -379,7 +379,7 @@ def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile
     if dls:
         R, B = rates[:steps], bounds[:steps]
         near = (R <= B[:, 0] + ACTIVE_TOLERANCE) | (R >= B[:, 1] - ACTIVE_TOLERANCE)
-        active = near.any(axis=1)
+        active = np.asarray(near.any(axis=1))
     return RateRun(
         dt=dt,
         nominal_ticks=nominal,

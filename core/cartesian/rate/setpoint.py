@@ -15,7 +15,7 @@ import numpy as np
 from core.geometry import so3
 from core.path import Path
 from core.path.line import StraightLine
-from core.timing import Profile
+from core.timing import PathLaw as Profile
 
 
 def tick_table(timing: Profile, dt: float, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -9,13 +9,13 @@ import math
 import numpy as np
 from scipy.linalg.lapack import dgesdd, dposv, dsyev
 
-from core.cartesian.joint_limits import outside, over_speed
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.errors import JointLimit, JointRateLimit, NoConvergence, PlanningError, Singularity
 from core.geometry import so3
 from core.geometry.so3 import SCALAR_LOG_MAX_ANGLE, SMALL_ANGLE
+from core.kinematics import SINGULAR_VALUE_THRESHOLD
+from core.limits import outside, over_speed
 
-PINV_SINGULAR_THRESHOLD = 1e-3
 """``resolved_rate`` refuses to step below this smallest singular value (J^+ would amplify 1000x)."""
 TIME_SCALE_MARGIN = 0.95
 """The path clock slows so the feedforward rates use at most this share of the velocity limits,
@@ -144,7 +144,7 @@ def pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
     """The ``resolved_rate`` step ``J^+ V`` (``J^-1 V`` when square) from the thin SVD of ``J``:
     ``(failure, qd)`` with exactly one of them set."""
     sigma, vmax = float(S[-1]), limits.velocity
-    if sigma < PINV_SINGULAR_THRESHOLD:
+    if sigma < SINGULAR_VALUE_THRESHOLD:
         detail = f"the Jacobian is singular (smallest singular value {sigma:.2e}) at s={s:.4f}"
         return Singularity(detail, s=s, extra={"min_singular_value": sigma}), None
     qd = Vt.T @ ((U.T @ V) / S)

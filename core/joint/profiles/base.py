@@ -41,6 +41,11 @@ class EndPinned:
     def peaks(self) -> Peaks:
         raise NotImplementedError
 
+    def switch_times(self) -> np.ndarray:
+        """Times [s] inside (0, duration) where a derivative up to the jerk steps: none for a
+        polynomial (its ends are the profile's own)."""
+        return np.zeros(0)
+
     def _evaluate_orders(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
         return tuple(self._evaluate(t, order) for order in range(3))
 
@@ -139,7 +144,8 @@ class DurationProfileKind(ProfileKind):
     ) -> Profile:
         """Without ``duration`` the shortest one within ``limits``; with it, a plan over known
         limits is ``JointRateLimit`` naming the shortest feasible duration."""
-        amax = np.asarray(np.inf if limits.acceleration is None else limits.acceleration)  # ramps
+        # ramps only: the acceleration limits, infinite where unknown
+        amax = np.asarray(np.inf if limits.acceleration is None else limits.acceleration, float)
         if duration is None:
             shortest = self.shortest_duration(motion, limits)
             return self.build(

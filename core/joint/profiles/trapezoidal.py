@@ -73,6 +73,12 @@ class TrapezoidalProfile(EndPinned):
         not counted) of each joint, each ``(dof,)``."""
         return Peaks(self.cruise.copy(), self.acceleration.copy(), np.zeros_like(self.cruise))
 
+    def switch_times(self) -> np.ndarray:
+        """The ramps' ends [s], where the accelerations step."""
+        T, ramp = self.duration, self.ramp[self.ramp > 0.0]
+        times = np.unique(np.concatenate([ramp, T - ramp]))
+        return times[(times > 0.0) & (times < T)]
+
 
 class Trapezoidal(DurationProfileKind):
     """Synchronized trapezoid: the slowest joint's time-optimal duration sets everyone's."""

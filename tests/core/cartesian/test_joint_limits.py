@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.cartesian.joint_limits import LIMIT_SLACK, inside, outside, over_speed, worst_joint
+from core.limits import LIMIT_SLACK, inside, outside, over_speed, worst_joint
 
 LIMITS = np.array([[-2.0, 2.0], [-0.25, 0.25]])  # ranges 4 rad and 0.5 rad (slack on 1 rad)
 

@@ -54,11 +54,14 @@ def test_on_label_returns_the_start_label_solution_nearest_the_seed():
 
 
 def test_on_label_tells_unreachable_from_branch_flip():
+    """``on_label`` raises why there is no solution (issue 23: it returned ``array | error``)."""
     toy = LabelledToy()
-    off = on_label(toy, at(1.81, 0.0), 0.7, "down", np.zeros(2))
-    assert isinstance(off, Unreachable) and off.s == 0.7
-    flip = on_label(toy, at(1.3, 0.5), 0.4, "down", np.zeros(2))  # past x_cut: only "up"
-    assert isinstance(flip, BranchFlip) and flip.s == 0.4 and "up" in str(flip)
+    with pytest.raises(Unreachable) as off:
+        on_label(toy, at(1.81, 0.0), 0.7, "down", np.zeros(2))
+    assert off.value.s == 0.7
+    with pytest.raises(BranchFlip) as flip:
+        on_label(toy, at(1.3, 0.5), 0.4, "down", np.zeros(2))  # past x_cut: only "up"
+    assert flip.value.s == 0.4 and "up" in str(flip.value)
     assert isinstance(on_label(toy, at(1.3, 0.5), 0.4, "up", np.zeros(2)), np.ndarray)
 
 

@@ -19,7 +19,7 @@ from core.cartesian.methods.sampled import plan_sampled
 from core.cartesian.path_rates import path_rates
 from core.cartesian.plan import plan
 from core.cartesian.task import CartesianTask
-from core.cartesian.walk import SINGULAR_VALUE_THRESHOLD, check_grid, walk_line
+from core.cartesian.walk import check_grid, walk_line
 from core.errors import (
     BranchFlip,
     Infeasible,
@@ -31,6 +31,7 @@ from core.errors import (
     TooLarge,
     Unreachable,
 )
+from core.kinematics import SINGULAR_VALUE_THRESHOLD
 from core.path.line import StraightLine
 from robots import registry
 from tests.core.conftest import toy_task

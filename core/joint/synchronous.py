@@ -65,6 +65,10 @@ class StraightProfile:
         p, d = self.law.peaks(), np.abs(self.dq)
         return Peaks(p.velocity[0] * d, p.acceleration[0] * d, p.jerk[0] * d)
 
+    def switch_times(self) -> np.ndarray:
+        """The law's switch times [s]."""
+        return self.law.switch_times()
+
 
 def straight_ptp(
     kind: str,

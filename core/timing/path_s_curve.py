@@ -1,20 +1,29 @@
-"""S-curve timing of a program chunk: continuous s'', bounded path jerk (see
-``core.program.timing``'s module docstring, "An S-curve chunk")."""
+"""The ``s_curve`` law on a joint path: continuous s'', bounded path jerk, within the limits.
+
+A motion program's chunk holding a LIN/CIRC with ``speed_profile="s_curve"`` is timed by the
+shorter of two laws, each after a dense check: one ``SCurveTiming`` (Ruckig, one degree of
+freedom) under the chunk's smallest speed cap and path acceleration (conservative, as
+``s_curve_limited``), and a ``ShapedSCurve`` whose speed follows the caps of
+``core.timing.path_limits`` along the path (slower in sharp blends only). Both bound the path
+jerk by the tool jerk limits over the largest tool rate per unit s (``PathLimits.tool_jerk``).
+The dense check of the joint velocities and accelerations and of the tool's linear jerk
+(P3 s'^3 + 3 P2 s' s'' + P1 s'''; P a C2 spline of the tool positions) stretches each law's time
+uniformly where needed (velocity by 1/k, acceleration by 1/k^2, jerk by 1/k^3). The path runs
+over s in [0, 1] (``path.length`` 1).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from core.program.chunk import (
-    CHECKS_PER_INTERVAL,
-    TINY,
-    ChunkInput,
-    ChunkTiming,
-    evaluate,
-    norm_rows,
-)
+from core.timing.joint_path import JointPath
+from core.timing.path_limits import TINY, PathLimits, path_caps
+from core.timing.path_profile import Stretched, dense_times, joint_motion, stretch_for
 from core.timing.s_curve import SCurveTiming
+
+CHECKS_PER_INTERVAL = 10
+"""Dense checks of the limits per interval of the law's knots."""
 
 SHAPE_SHARE = 0.5
 """Share of the path acceleration the speed shape of a shaped S-curve may use (the rest is left to
@@ -71,6 +80,10 @@ class ShapedSCurve:
         sig = np.interp(np.asarray(s, dtype=float), self.h(grid), grid)
         return self.curve.time_at(sig / self.total)
 
+    def switch_times(self) -> np.ndarray:
+        """Times [s] where the path jerk steps (the S-curve's phase boundaries)."""
+        return self.curve.switch_times()
+
 
 def _speed_shape(
     s: np.ndarray, cap: np.ndarray, acc_int: np.ndarray
@@ -99,23 +112,15 @@ def _speed_shape(
     return u, np.maximum(g, 1e-9)
 
 
-def s_curve_chunk(
-    c: ChunkInput,
-    s: np.ndarray,
-    path: CubicSpline,
-    cap: np.ndarray,
-    acc_int: np.ndarray,
-    dp: np.ndarray,
-    dw: np.ndarray,
-) -> ChunkTiming:
-    """An S-curve chunk, the shorter of two laws after a dense check: one ``SCurveTiming`` under
-    the chunk's smallest speed cap and path acceleration (conservative, as ``s_curve_limited``),
-    and a ``ShapedSCurve`` whose speed follows the caps along the path. Both bound s''' by the
-    tool jerk limits over the largest tool rate per unit s (``c.jerk``). The dense check of the
-    joint velocities and accelerations and of the tool's linear jerk P3 s'^3 + 3 P2 s' s'' +
-    P1 s''' (P: a C2 spline of the tool positions) stretches each law's time uniformly where
-    needed (velocity by 1/k, acceleration by 1/k^2, jerk by 1/k^3)."""
-    j_lin, j_ang = c.jerk  # type: ignore[misc]
+def shaped_s_curve(path: JointPath, limits: PathLimits) -> Stretched:
+    """The S-curve law of ``path`` under ``limits`` (see the module docstring)."""
+    if abs(float(path.length) - 1.0) > 1e-12:
+        raise ValueError("the s_curve path law times paths over s in [0, 1]")
+    s = limits.s
+    caps = path_caps(path, limits)
+    cap, acc_int = caps.cap, caps.acceleration
+    j_lin, j_ang = limits.tool_jerk if limits.tool_jerk is not None else (np.inf, np.inf)
+    dp, dw = limits.tool_rate[:, 0], limits.tool_rate[:, 1]
     bounds = [np.inf]
     if dp.max() > TINY:
         bounds.append(j_lin / dp.max())
@@ -124,23 +129,22 @@ def s_curve_chunk(
     j_max = min(bounds)
     if not np.isfinite(j_max):  # the tool does not move (a pure wrist turn is caught above)
         j_max = 1e6
-    laws: list[SCurveTiming | ShapedSCurve] = [
-        SCurveTiming(
-            max_velocity=float(min(np.min(cap), 1e9)),
-            max_acceleration=float(np.min(acc_int)),
-            max_jerk=float(j_max),
-        )
-    ]
+    first = SCurveTiming(
+        max_velocity=float(min(np.min(cap), 1e9)),
+        max_acceleration=float(np.min(acc_int)),
+        max_jerk=float(j_max),
+    )
     # The tool's jerk along a curve at speed s' grows as |P3| s'^3 (v^3 / r^2 on a circle of
     # radius r): a speed cap for the shape, with a quarter of the jerk limit for that term.
-    tool = CubicSpline(s, c.T[:, :3, 3])
+    positions = limits.tool_positions
+    tool = CubicSpline(s, np.zeros((len(s), 3)) if positions is None else positions)
     p3 = norm_rows(6.0 * tool.c[0])
     p3 = np.maximum(np.concatenate([p3[:1], p3]), np.concatenate([p3, p3[-1:]]))
     with np.errstate(divide="ignore"):
         cap_jerk = np.where(p3 > TINY, np.cbrt(0.25 * j_lin / p3), np.inf)
     shape_cap = np.minimum(cap, cap_jerk)
     end_acc = float(min(acc_int[0], acc_int[-1]))
-    best = _checked(c, s, path, tool, laws[0], j_lin)[0]
+    best = _checked(path, limits, tool, first, j_lin)[0]
     for _ in range(SHAPE_ROUNDS):
         # Where the dense check finds the shaped law over a limit, its cap drops by that factor
         # (velocity 1/k, acceleration 1/k^2, jerk 1/k^3) over a neighbourhood; then again.
@@ -148,10 +152,10 @@ def s_curve_chunk(
         law = ShapedSCurve(u, g, (1 - SHAPE_SHARE) * end_acc, j_max)
         if not law.monotone:
             break
-        timing, s_d, over = _checked(c, s, path, tool, law, j_lin)
-        if timing.duration < best.duration:
-            best = timing
-        if timing.stretch == 1.0:
+        timed, s_d, over = _checked(path, limits, tool, law, j_lin)
+        if timed.duration < best.duration:
+            best = timed
+        if timed.stretch == 1.0:
             break
         factor = np.ones(len(s))
         i = np.clip(np.searchsorted(s, s_d), 0, len(s) - 1)
@@ -165,23 +169,23 @@ def s_curve_chunk(
 
 
 def _checked(
-    c: ChunkInput,
-    s: np.ndarray,
-    path: CubicSpline,
+    path: JointPath,
+    limits: PathLimits,
     tool: CubicSpline,
     law: SCurveTiming | ShapedSCurve,
     j_lin: float,
-) -> tuple[ChunkTiming, np.ndarray, np.ndarray]:
-    """``law`` with its uniform stretch after the dense check (see ``_s_curve``), the path
+) -> tuple[Stretched, np.ndarray, np.ndarray]:
+    """``law`` with its uniform stretch after the dense check (see the module docstring), the path
     parameters of the dense check and the factor (>= 1) by which each is over a limit."""
+    s = limits.s
     end = law.duration
-    frac = np.arange(CHECKS_PER_INTERVAL) / CHECKS_PER_INTERVAL
     knots = np.unique(np.concatenate([law.time_at(s), np.linspace(0.0, end, 201)]))
-    dense = np.concatenate([(knots[:-1, None] + np.diff(knots)[:, None] * frac).ravel(), [end]])
-    _, vel, accel = evaluate(law, path, dense, end)
+    dense = dense_times(knots, CHECKS_PER_INTERVAL)
+    _, vel, accel = joint_motion(path, law, dense)
     s_d = np.clip(law(dense), 0.0, 1.0)
     i = np.clip(np.searchsorted(s, s_d, side="right") - 1, 0, len(s) - 2)
-    v_lim, a_lim = np.minimum(c.v_max[i], c.v_max[i + 1]), np.minimum(c.a_max[i], c.a_max[i + 1])
+    v_lim = np.minimum(limits.velocity[i], limits.velocity[i + 1])
+    a_lim = np.minimum(limits.acceleration[i], limits.acceleration[i + 1])
     sd, sdd, sddd = law(dense, 1), law(dense, 2), law(dense, 3)
     jerk = np.zeros(len(dense))
     for back in (0, 1):  # P3 steps at the knots: both neighbouring pieces
@@ -195,18 +199,7 @@ def _checked(
     ratio_v = float(np.max(np.abs(vel) / v_lim))
     ratio_a = float(np.max(np.abs(accel) / a_lim))
     ratio_j = float(jerk.max() / j_lin) if np.isfinite(j_lin) else 0.0
-
-    stretch = max(1.0, ratio_v, np.sqrt(ratio_a), np.cbrt(ratio_j)) * (1.0 + 1e-9)
-    stretch = 1.0 if stretch <= 1.0 + 2e-9 else stretch
-    t = law.time_at(s)
-    t[0], t[-1] = 0.0, end
-    timing = ChunkTiming(
-        knot_times=t * stretch,
-        duration=float(end * stretch),
-        stretch=stretch,
-        law=law,
-        path=path,
-    )
+    timed = Stretched(law, stretch_for((ratio_v, ratio_a, ratio_j)))
     with np.errstate(divide="ignore", invalid="ignore"):
         over = np.maximum.reduce(
             [
@@ -215,4 +208,8 @@ def _checked(
                 np.cbrt(jerk / j_lin) if np.isfinite(j_lin) else np.zeros(len(jerk)),
             ]
         )
-    return timing, s_d, np.maximum(over, 1.0)
+    return timed, s_d, np.maximum(over, 1.0)
+
+
+def norm_rows(a: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(a, axis=1)

@@ -1,0 +1,146 @@
+"""``POST /v1/trajectories/collision_free``: request -> ``core.motion.plan.MotionTask`` and the
+robot's clearance (``robots.validity.GroupedClearance``), ``MotionResult`` -> response.
+
+The start must hold one value per joint inside the position limits (422 ``validation`` /
+``joint_limit`` naming the field); a goal pose becomes every IK solution
+(``core.motion.goals.pose_goals``); ``max_planning_time`` may not exceed the request's time
+budget. Limits: the request's lists over the robot's (``service.convert.joint.joint_limits``).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from starlette.responses import Response
+
+from core.budget import Deadline
+from core.collisions import PROFILE_POINTS
+from core.errors import Collision, InputError
+from core.limits import check_positions
+from core.motion.goals import Goals, pose_goals
+from core.motion.plan import MotionResult, MotionTask
+from core.trajectory import Trajectory
+from robots.collision import CollisionChecker
+from robots.model import Robot
+from robots.validity import GroupedClearance
+from service.convert.joint import joint_limits
+from service.convert.robot import robot_and_names
+from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
+from service.schemas.collision_free import CollisionFreeRequest
+
+SEARCH_RESERVE = 1.0
+"""[s] Of the request's time budget, kept for what follows the search (shortening, smoothing,
+timing, the continuous check, encoding)."""
+
+
+def motion_task(
+    body: CollisionFreeRequest, robot: Robot, deadline: Deadline, max_points: int, budget_s: float
+) -> MotionTask:
+    """The core task of a request (start and goal checked against the robot)."""
+    _, names = robot_and_names(body.robot, len(body.start.positions), ("start", "positions"))
+    limits = joint_limits(body.limits, robot)
+    q_start = np.asarray(body.start.positions, dtype=float)
+    check_positions(q_start[None], limits, names, field=("start", "positions"))
+    for field_name in ("velocity", "acceleration", "jerk"):
+        given = getattr(body.limits, field_name, None) if body.limits is not None else None
+        if given is not None and len(given) != robot.dof:
+            raise InputError(
+                f"limits.{field_name} needs {robot.dof} values, one per joint",
+                field=("limits", field_name),
+            )
+    if body.goal.positions is not None:
+        q_goal = np.asarray(body.goal.positions, dtype=float)
+        if q_goal.shape != (robot.dof,):
+            raise InputError(
+                f"goal.positions needs {robot.dof} values, one per joint",
+                field=("goal", "positions"),
+            )
+        check_positions(q_goal[None], limits, names, field=("goal", "positions"))
+        goals = Goals(q_goal[None], (robot.configuration(q_goal),), False)
+    else:
+        assert body.goal.pose is not None  # the schema gives exactly one
+        goals = pose_goals(robot, body.goal.pose.as_matrix(), q_start, body.goal.configuration)
+    if body.max_planning_time is not None and body.max_planning_time > budget_s:
+        raise InputError(
+            f"max_planning_time may be at most the request's time budget, {budget_s:g} s",
+            field=("max_planning_time",),
+            extra={"budget_s": budget_s},
+        )
+    planning = budget_s if body.max_planning_time is None else float(body.max_planning_time)
+    planning = max(min(planning, deadline.remaining() - SEARCH_RESERVE), 0.0)
+    return MotionTask(
+        q_start=q_start,
+        goals=goals,
+        limits=limits,
+        timing=body.timing,
+        seed=body.seed,
+        max_planning_time=planning,
+        sample_period=body.sample_period,
+        samples=body.samples,
+        max_points=max_points,
+        joint_names=names,
+        deadline=deadline,
+    )
+
+
+def usual_check(
+    check: CollisionChecker | None, clearance: GroupedClearance | None, traj: Trajectory
+) -> dict[str, Any]:
+    """The continuous check of the returned points every trajectory answer passes
+    (``CollisionChecker.check_path``): ``min_clearance`` and ``closest``, and the
+    ``clearance_profile`` (the smallest distance at up to ``PROFILE_POINTS`` returned points, from
+    coal's group minima: the checker's numpy engine takes ten times longer for the same numbers).
+    A contact is ``Collision`` (a certified answer never has one)."""
+    if check is None or clearance is None:
+        return {}
+    result = check.check_path(traj.times, traj.positions)
+    c = result.contact
+    if c is not None:
+        raise Collision(
+            f"{c.links[0]} comes within {c.distance:.4f} m of {c.links[1]} at t = {c.time:.4f} s",
+            extra={"time_from_start": c.time, "links": list(c.links), "distance": c.distance},
+        )
+    n = len(traj.times)
+    rows = np.unique(np.round(np.linspace(0, n - 1, min(n, PROFILE_POINTS))).astype(int))
+    closest = result.closest
+    return {
+        "min_clearance": float(result.min_clearance),
+        "closest": None
+        if closest is None
+        else {"links": list(closest[0]), "time_from_start": float(closest[1])},
+        "clearance_profile": {
+            "time_from_start": traj.times[rows].tolist(),
+            "value": clearance.min_distances(traj.positions[rows]).tolist(),
+        },
+    }
+
+
+def response(
+    result: MotionResult,
+    checked: dict[str, Any],
+    warnings: tuple[str, ...],
+    started: float,
+    time_format: str,
+) -> Response:
+    """The answer: the trajectory, its diagnostics (``planner``, ``path_length``,
+    ``path_length_ratio``, ``certified``, the usual check's ``min_clearance``, ``closest`` and
+    ``clearance_profile``) and ``waypoints``."""
+    traj = result.trajectory
+    check_finite(traj)
+    diag = base_diagnostics(traj, "collision_free", (time.perf_counter() - started) * 1e3)
+    diag.update(
+        warnings=list(warnings),
+        timing=result.timing,
+        planner=result.planner.as_dict(),
+        path_length=result.path_length,
+        path_length_ratio=result.path_length_ratio,
+        certified=True,
+        goal_configuration=result.configuration,
+        **checked,
+    )
+    waypoints = np.asarray(result.waypoints, dtype=float).tolist()
+    return json_response(
+        trajectory_body(traj, diag, time_format, encoded=True, waypoints=waypoints)
+    )
