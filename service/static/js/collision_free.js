@@ -21,7 +21,7 @@ import { answerStatus, busy, done, pageError, renderProblem, renderSummary, rend
 import { showView } from './tabs.js';
 import { fkGroups } from './toolpath.js';
 
-const WAYPOINT_COLOR = '#0f766e';
+const WAYPOINT_COLOR = '#db2777';
 
 /**
  * Scene items of a motion's waypoints from their FK ``answers``: the tool at each waypoint (markers
