@@ -37,11 +37,11 @@ import pinocchio as pin  # noqa: E402
 
 from bench import mbm  # noqa: E402
 from bench.harness import ROOT, cpu_seconds, optional, server  # noqa: E402
+from core.collisions import checked  # noqa: E402
 from core.trajectory import Trajectory  # noqa: E402
 from robots import registry  # noqa: E402
 from robots.collision import CollisionChecker  # noqa: E402
 from robots.validity import GroupedClearance  # noqa: E402
-from service.convert.collision_free import usual_check  # noqa: E402
 from service.convert.environment import collision_check  # noqa: E402
 from service.schemas.environment import Environment  # noqa: E402
 
@@ -124,7 +124,7 @@ def ours(client: Any, live: Any, case: Case, check: CollisionChecker) -> None:
 
 def usual_check_cpu(check: CollisionChecker, data: dict[str, Any]) -> float:
     """CPU time [ms] of the usual continuous check of the answer as the service runs it
-    (``service.convert.collision_free.usual_check``), run again here: the part of the request's
+    (``core.collisions.checked`` on the request's clearance), run again here: the part of the request's
     cost that is not the planner's."""
     traj = Trajectory(
         np.asarray(data["time_from_start"], dtype=float),
@@ -134,7 +134,7 @@ def usual_check_cpu(check: CollisionChecker, data: dict[str, Any]) -> float:
         tuple(data["joint_names"]),
     )
     started = time.process_time()
-    usual_check(check, GroupedClearance(check), traj)
+    checked(traj, GroupedClearance(check))
     return (time.process_time() - started) * 1e3
 
 

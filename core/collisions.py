@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.clearance import approach_text
 from core.errors import Collision
 from core.kinematics import Clearance
 from core.trajectory import Trajectory
@@ -137,7 +138,7 @@ def end_collision(clearance: Clearance, end: End, pair: int, margin: float) -> C
     if end.segment is not None:
         extra["segment"] = end.segment
     return Collision(
-        f"the {which} configuration is in collision: {a} and {b} are {d:.4g} m apart "
+        f"the {which} configuration is in collision: {approach_text(a, b, d)} "
         f"(clearance {threshold:g} m){hint}",
         s=end.s,
         extra=extra,
@@ -188,8 +189,8 @@ def collision_error(
     if segment is not None:
         extra["segment"] = segment
     return Collision(
-        f"{contact.links[0]} and {contact.links[1]} are {contact.distance:.4g} m apart at "
-        f"t = {contact.time:.4f} s, closer than allowed",
+        f"{approach_text(contact.links[0], contact.links[1], contact.distance)} at "
+        f"t = {contact.time:.4f} s",
         s=s,
         extra=extra,
     )

@@ -31,7 +31,7 @@ from typing import Any
 
 from fastapi import Request
 
-from core.cartesian.rate.control import MAX_TICKS
+from core.cartesian.task import MAX_TICKS
 from core.errors import PlanningError
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, SAMPLING_ADMISSION
 from robots import registry

@@ -41,16 +41,20 @@ class Memo:
         self.reused: dict[str, int] = {}
 
     def get_or_build(self, kind: str, key: Hashable, build: Callable[[], T]) -> T:
-        """The stored result of ``(kind, key)``, else ``build()`` stored (nothing when it raises)."""
+        """The stored result of ``(kind, key)``, else ``build()`` stored (nothing when it raises).
+        A ``None`` result (nothing to build: a robot without collision geometry) is stored but
+        counted neither as built nor as reused."""
         with self._lock:
             if (kind, key) in self._values:
-                self.reused[kind] = self.reused.get(kind, 0) + 1
                 value: T = self._values[kind, key]
+                if value is not None:
+                    self.reused[kind] = self.reused.get(kind, 0) + 1
                 return value
         value = build()
         with self._lock:
             self._values.setdefault((kind, key), value)
-            self.built[kind] = self.built.get(kind, 0) + 1
+            if value is not None:
+                self.built[kind] = self.built.get(kind, 0) + 1
         return value
 
     def stats(self) -> dict[str, dict[str, int]]:

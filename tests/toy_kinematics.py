@@ -10,7 +10,8 @@ import math
 
 import numpy as np
 
-from core.kinematics import DerivedKinematics, IKResult, SolutionSet
+from core.derived_kinematics import DerivedKinematics
+from core.kinematics import IKResult, SolutionSet
 
 
 class ToyPlanar2R(DerivedKinematics):

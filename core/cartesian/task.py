@@ -21,6 +21,9 @@ from core.path import Path, build_path
 from core.timing import DEFAULT_LAW
 from core.trajectory import Trajectory
 
+MAX_TICKS = 1_000_000
+"""Most control ticks one resolved-rate run may simulate (bounds memory and time; ``TooLarge``
+beyond)."""
 DEFAULT_MAX_LINEAR_SPEED = 0.25
 """Tool speed [m/s] used when a request gives neither a duration nor speed limits."""
 DEFAULT_MAX_ANGULAR_SPEED = 1.0

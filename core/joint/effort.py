@@ -22,7 +22,7 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import Infeasible
 from core.joint.durations import MAX_DURATION
-from core.kinematics import Dynamics
+from core.kinematics import DEFAULT_GRAVITY, Dynamics
 from core.timing.interval_peaks import refine_peaks, sampled_peaks
 from core.timing.path_constraints import Effort
 from core.trajectory import Peaks, Profile
@@ -151,10 +151,14 @@ def shortest_for_effort(
 
 
 def peak_effort(
-    dynamics: Dynamics, motion: Sampled, times: np.ndarray, gravity: np.ndarray
-) -> np.ndarray:
+    dynamics: Dynamics | None, motion: Sampled, times: np.ndarray, gravity: np.ndarray | None
+) -> np.ndarray | None:
     """Largest |tau| [N m or N] per joint ``(dof,)`` over ``motion`` at ``times`` ``(K,)`` and
-    ``DENSE`` points between consecutive ones."""
+    ``DENSE`` points between consecutive ones, under ``gravity`` [m/s^2] (base frame; default
+    ``DEFAULT_GRAVITY``); None without ``dynamics``."""
+    if dynamics is None:
+        return None
+    gravity = np.asarray(DEFAULT_GRAVITY if gravity is None else gravity, dtype=float)
     times = np.asarray(times, dtype=float)
     inner = times[:-1, None] + np.diff(times)[:, None] * np.arange(1, DENSE + 1) / (DENSE + 1)
     t = np.concatenate([times, inner.ravel()])

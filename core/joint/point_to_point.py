@@ -15,10 +15,10 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import InputError
-from core.joint.effort import TimeScaled, shortest_for_effort
+from core.joint.effort import TimeScaled, peak_effort, shortest_for_effort
 from core.joint.motion import PointToPoint, State
 from core.joint.profiles import PROFILES
-from core.kinematics import Clearance
+from core.kinematics import Clearance, Dynamics
 from core.limits import JointLimits, check_boundary_rates, check_positions, check_rates
 from core.timing.path_constraints import Effort
 from core.trajectory import MAX_POINTS, Profile, Trajectory, default_joint_names, sample_times
@@ -32,12 +32,14 @@ NO_LIMITS = JointLimits()
 class JointPlan(NamedTuple):
     """A planned move: the sampled ``trajectory`` (with the profile's exact peaks), the
     ``profile`` (sample it anywhere in ``[0, T]``), human-readable ``warnings`` and the collision
-    check's ``clearance`` (None: nothing checked)."""
+    check's ``clearance`` (None: nothing checked), ``peak_effort`` ``(dof,)`` [N m or N] with
+    dynamics."""
 
     trajectory: Trajectory
     profile: Profile
     warnings: tuple[str, ...]
     clearance: ClearanceReport | None = None
+    peak_effort: np.ndarray | None = None
 
 
 def plan_joint(
@@ -53,6 +55,8 @@ def plan_joint(
     deadline: Deadline = NO_DEADLINE,
     effort: Effort | None = None,
     collision_check: Clearance | None = None,
+    dynamics: Dynamics | None = None,
+    gravity: np.ndarray | None = None,
 ) -> JointPlan:
     """Plan and sample a point-to-point move: the one core call of the joint-space route.
 
@@ -67,7 +71,8 @@ def plan_joint(
     (``core.joint.effort.shortest_for_effort``).
     With ``collision_check`` the start and goal are
     checked before planning and the sampled motion continuously after it (``core.collisions``:
-    ``Collision`` at the first contact).
+    ``Collision`` at the first contact). With ``dynamics``, ``peak_effort`` under ``gravity``
+    [m/s^2] (base frame), measured between the returned points too.
     """
     limits = limits or NO_LIMITS
     dof, names = motion.dof, tuple(joint_names) or default_joint_names(motion.dof)
@@ -109,7 +114,8 @@ def plan_joint(
         )  # fmt: skip
     check_positions(trajectory.positions, limits, names, times=times)
     report = checked(trajectory, collision_check)
-    return JointPlan(trajectory, profile, spec.warnings(motion), report)
+    peak = peak_effort(dynamics, profile, times, gravity)
+    return JointPlan(trajectory, profile, spec.warnings(motion), report, peak)
 
 
 def _check_boundaries(kind: str, m: PointToPoint, limits: JointLimits, names: tuple) -> None:

@@ -17,14 +17,14 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from core.budget import NO_DEADLINE, Deadline
 from core.collisions import ClearanceReport, End, check_ends, checked
 from core.errors import Infeasible, InputError, JointRateLimit, PlanningError
 from core.joint import durations
-from core.joint.effort import shortest_for_effort
-from core.kinematics import Clearance
+from core.joint.effort import peak_effort, shortest_for_effort
+from core.joint.spline_profile import BOUNDARIES, SplineProfile
+from core.kinematics import Clearance, Dynamics
 from core.limits import (
     JointLimits,
     check_boundary_rates,
@@ -33,137 +33,24 @@ from core.limits import (
     joint_vector,
 )
 from core.timing.path_constraints import Effort
-from core.trajectory import MAX_POINTS, Peaks, Trajectory, default_joint_names, sample_times
+from core.trajectory import MAX_POINTS, Trajectory, default_joint_names, sample_times
 
-BOUNDARIES = ("clamped", "natural", "not-a-knot")
 MIN_KNOT_SPACING = 1e-6
 """Smallest interval [s] between two given knot times."""
-SAMPLE_BLOCK = 2048
-"""Samples evaluated at once by ``SplineProfile.sample`` (its temporaries stay in cache)."""
 SHAPE_ITERATIONS = 8
 """Rounds of segment-wise re-allocation before the final uniform scaling."""
 
 
-class SplineProfile:
-    """A C2 cubic spline ``q(t)`` through ``waypoints`` at ``knot_times``: build once, sample often.
-
-    Args:
-        knot_times: ``(n + 1,)`` in [s], strictly increasing from 0.
-        waypoints: ``(n + 1, dof)``.
-        boundary: One of ``BOUNDARIES``.
-        start_velocity, goal_velocity: ``(dof,)`` end velocities of a ``clamped`` spline.
-    """
-
-    method = "spline"
-
-    def __init__(
-        self,
-        knot_times: np.ndarray,
-        waypoints: np.ndarray,
-        boundary: str = "clamped",
-        start_velocity: np.ndarray | None = None,
-        goal_velocity: np.ndarray | None = None,
-    ) -> None:
-        dof = waypoints.shape[1]
-        v0 = np.zeros(dof) if start_velocity is None else start_velocity
-        v1 = np.zeros(dof) if goal_velocity is None else goal_velocity
-        bc = ((1, v0), (1, v1)) if boundary == "clamped" else boundary
-        self.spline = CubicSpline(knot_times, waypoints, bc_type=bc, axis=0)
-        self._coeffs = np.ascontiguousarray(self.spline.c.transpose(0, 2, 1))  # (4, dof, n)
-        self.knot_times, self.boundary = knot_times, boundary
-        self.duration = float(knot_times[-1])
-        zero = np.zeros(dof) if boundary == "natural" else None
-        clamped = boundary == "clamped"
-        self._ends = (
-            (0.0, (waypoints[0], v0 if clamped else None, zero)),
-            (self.duration, (waypoints[-1], v1 if clamped else None, zero)),
-        )
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
-        """Derivative ``order`` at times ``t`` ``(N,)`` -> ``(N, dof)``; exact at the ends."""
-        t = np.asarray(t, dtype=float)
-        return self._pin(self._hits(t), order, np.asarray(self.spline(t, nu=order)))
-
-    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions, velocities, accelerations at ``t`` ``(N,)``, each ``(N, dof)``: the same as
-        three calls (to ~1e-15), with one interval search and Horner's rule on ``(dof, N)`` rows
-        in blocks of ``SAMPLE_BLOCK`` samples (the working set stays in cache): faster than
-        scipy's three evaluations."""
-        t = np.asarray(t, dtype=float)
-        knots = self.knot_times
-        k = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
-        x = t - knots[k]
-        n, dof = t.size, self._coeffs.shape[1]
-        q, qd, qdd = np.empty((3, n, dof))  # one allocation: large ones cost page faults
-        for lo in range(0, n, SAMPLE_BLOCK):
-            hi = min(n, lo + SAMPLE_BLOCK)
-            xs = x[lo:hi]
-            a, b, c, d = np.take(self._coeffs, k[lo:hi], axis=2)  # each (dof, hi - lo)
-            # Horner with its derivatives: p = a x + b, then p x + c (=: r), q = r x + d;
-            # qd = (a x + p) x + r = 3a x^2 + 2b x + c; qdd = 2 (a x + p + a x) = 6a x + 2b.
-            # Rows are (dof, block) (the long axis innermost), copied into the (N, dof) outputs.
-            ax = a * xs
-            p = ax + b
-            dp = ax + p
-            acc = dp + ax
-            acc *= 2.0
-            p *= xs
-            p += c
-            pos = p * xs
-            pos += d
-            dp *= xs
-            dp += p
-            q[lo:hi], qd[lo:hi], qdd[lo:hi] = pos.T, dp.T, acc.T
-        hits = self._hits(t)
-        return self._pin(hits, 0, q), self._pin(hits, 1, qd), self._pin(hits, 2, qdd)
-
-    def _hits(self, t: np.ndarray) -> list[np.ndarray]:
-        """Indices of the samples at exactly each end (0 and the duration)."""
-        return [(t == at).nonzero()[0] for at, _ in self._ends]
-
-    def _pin(self, hits: list[np.ndarray], order: int, out: np.ndarray) -> np.ndarray:
-        for hit, (_, values) in zip(hits, self._ends, strict=True):
-            if order < len(values) and values[order] is not None and hit.size:
-                out[hit] = values[order]
-        return out
-
-    def segment_peaks(self) -> tuple[np.ndarray, np.ndarray]:
-        """Exact largest |velocity| and |acceleration| on each piece, each ``(n, dof)``.
-
-        On a piece ``c0 x^3 + c1 x^2 + c2 x + c3``, ``x`` in ``[0, h]``: the velocity peaks at an
-        end or at ``x* = -c1 / (3 c0)``; the acceleration is linear, so it peaks at an end.
-        """
-        c0, c1, c2 = self.spline.c[0], self.spline.c[1], self.spline.c[2]
-        h = np.diff(self.knot_times)[:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x = -c1 / (3.0 * c0)
-            inside = np.isfinite(x) & (x > 0.0) & (x < h)
-            v_mid = np.where(inside, np.abs(c2 - c1**2 / (3.0 * c0)), 0.0)
-        v_end = np.abs(3.0 * c0 * h**2 + 2.0 * c1 * h + c2)
-        vel = np.maximum(np.maximum(np.abs(c2), v_end), v_mid)
-        acc = np.maximum(np.abs(2.0 * c1), np.abs(6.0 * c0 * h + 2.0 * c1))
-        return vel, acc
-
-    def peaks(self) -> Peaks:
-        """Exact largest |velocity|, |acceleration| and |jerk| (``6 |c0|``, constant on each
-        piece) over the whole spline, each ``(dof,)``."""
-        vel, acc = self.segment_peaks()
-        return Peaks(vel.max(axis=0), acc.max(axis=0), np.abs(6.0 * self.spline.c[0]).max(axis=0))
-
-    def switch_times(self) -> np.ndarray:
-        """The inner knot times [s], where the jerk steps."""
-        return self.knot_times[1:-1].copy()
-
-
 class SplinePlan(NamedTuple):
     """A planned spline: the sampled ``trajectory``, the ``profile``, its ``knot_times`` [s]
-    ``(n + 1,)``, human-readable ``warnings`` and the collision check's ``clearance``."""
+    ``(n + 1,)``, ``warnings``, the collision check's ``clearance``, ``peak_effort`` [N m or N]."""
 
     trajectory: Trajectory
     profile: SplineProfile
     knot_times: np.ndarray
     warnings: tuple[str, ...]
     clearance: ClearanceReport | None = None
+    peak_effort: np.ndarray | None = None
 
 
 ROUNDING_MARGIN = 1e-12
@@ -270,6 +157,8 @@ def plan_spline(
     deadline: Deadline = NO_DEADLINE,
     effort: Effort | None = None,
     collision_check: Clearance | None = None,
+    dynamics: Dynamics | None = None,
+    gravity: np.ndarray | None = None,
 ) -> SplinePlan:
     """Plan and sample a spline through ``waypoints`` ``(n + 1, dof)``: the one core call of the
     spline route.
@@ -279,9 +168,41 @@ def plan_spline(
     ``JointRateLimit``. Waypoints and every sample must stay within ``limits.position``
     (``JointLimit``). End velocities are for ``clamped`` only (``InputError`` otherwise). With
     ``collision_check``, the first and last waypoints are checked before planning and the sampled
-    motion continuously after it (``core.collisions``).
+    motion continuously after it (``core.collisions``). ``dynamics``: ``peak_effort`` (``gravity``).
     """
     limits = limits or JointLimits()
+    q, names, v0, v1 = _entry(
+        waypoints, boundary, start_velocity, goal_velocity, limits, joint_names
+    )
+    if effort is not None and times is not None:
+        raise InputError(
+            "limits.effort applies when the service allocates the times (give no times)",
+            field=("limits", "effort"),
+        )
+    check_ends(collision_check, (End("start", q[0], 0.0), End("goal", q[-1])))
+    profile, knots = _timed(q, times, boundary, v0, v1, limits, names, effort, deadline)
+    trajectory = Trajectory.from_profile(
+        profile, sample_times(profile.duration, sample_period, samples, max_points), names
+    )
+    if limits.velocity is not None or limits.acceleration is not None:  # else nothing to check
+        check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
+    check_positions(trajectory.positions, limits, names, times=trajectory.times)
+    warnings = () if not np.any(trajectory.velocities[-1]) else (durations.NONZERO_END_VELOCITY,)
+    report = checked(trajectory, collision_check)
+    peak = peak_effort(dynamics, profile, trajectory.times, gravity)
+    return SplinePlan(trajectory, profile, knots, warnings, report, peak)
+
+
+def _entry(
+    waypoints: np.ndarray,
+    boundary: str,
+    start_velocity: np.ndarray | None,
+    goal_velocity: np.ndarray | None,
+    limits: JointLimits,
+    joint_names: tuple[str, ...],
+) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, np.ndarray]:
+    """``plan_spline``'s entry checks: waypoints ``(n + 1, dof)``, joint names, end velocities
+    ``(dof,)`` (``InputError``, ``JointLimit``, ``JointRateLimit`` naming the field)."""
     q = np.asarray(waypoints, dtype=float)
     if q.ndim != 2 or q.shape[0] < 2 or q.shape[1] < 1 or not np.all(np.isfinite(q)):
         raise InputError("waypoints must be 2 or more finite joint vectors", field=("waypoints",))
@@ -303,12 +224,22 @@ def plan_spline(
     vmax = limits.maxima(dof)[0]
     check_boundary_rates(v0, vmax, ("start_velocity",), names)
     check_boundary_rates(v1, vmax, ("goal_velocity",), names)
-    if effort is not None and times is not None:
-        raise InputError(
-            "limits.effort applies when the service allocates the times (give no times)",
-            field=("limits", "effort"),
-        )
-    check_ends(collision_check, (End("start", q[0], 0.0), End("goal", q[-1])))
+    return q, names, v0, v1
+
+
+def _timed(
+    q: np.ndarray,
+    times: np.ndarray | None,
+    boundary: str,
+    v0: np.ndarray,
+    v1: np.ndarray,
+    limits: JointLimits,
+    names: tuple[str, ...],
+    effort: Effort | None,
+    deadline: Deadline,
+) -> tuple[SplineProfile, np.ndarray]:
+    """The spline's profile and knot times [s]: allocated within the limits (and ``effort``)
+    without ``times``; else at ``times``, checked against the rate limits."""
     if times is None:
         knots = allocate_times(q, boundary, limits, v0, v1, deadline)
         profile = SplineProfile(knots, q, boundary, v0, v1)
@@ -322,29 +253,21 @@ def plan_spline(
                 deadline,
             )
             knots = profile.knot_times
-    else:
-        knots = _knot_times(times, q.shape[0])
-        profile = SplineProfile(knots, q, boundary, v0, v1)
+        return profile, knots
+    knots = _knot_times(times, q.shape[0])
+    profile = SplineProfile(knots, q, boundary, v0, v1)
 
-        def hint() -> str:
-            try:
-                allocated = allocate_times(q, boundary, limits, v0, v1, deadline)[-1]
-            except PlanningError:
-                return ""
-            return f"; times allocated within the limits would take {allocated:.6g} s"
+    def hint() -> str:
+        try:
+            allocated = allocate_times(q, boundary, limits, v0, v1, deadline)[-1]
+        except PlanningError:
+            return ""
+        return f"; times allocated within the limits would take {allocated:.6g} s"
 
-        if limits.velocity is not None or limits.acceleration is not None:
-            vel, acc = (peak.max(axis=0) for peak in profile.segment_peaks())
-            check_rates(vel, acc, limits, names, hint=hint)
-    trajectory = Trajectory.from_profile(
-        profile, sample_times(profile.duration, sample_period, samples, max_points), names
-    )
-    if limits.velocity is not None or limits.acceleration is not None:  # else nothing to check
-        check_rates(trajectory.peak_velocity, trajectory.peak_acceleration, limits, names)
-    check_positions(trajectory.positions, limits, names, times=trajectory.times)
-    warnings = () if not np.any(trajectory.velocities[-1]) else (durations.NONZERO_END_VELOCITY,)
-    report = checked(trajectory, collision_check)
-    return SplinePlan(trajectory, profile, knots, warnings, report)
+    if limits.velocity is not None or limits.acceleration is not None:
+        vel, acc = (peak.max(axis=0) for peak in profile.segment_peaks())
+        check_rates(vel, acc, limits, names, hint=hint)
+    return profile, knots
 
 
 def _knot_times(times: object, count: int) -> np.ndarray:

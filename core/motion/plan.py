@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
+from core.collisions import ClearanceReport, checked
 from core.errors import Collision, InputError, NoPathFound
 from core.limits import JointLimits
 from core.motion.certify import Certifier
@@ -305,6 +306,8 @@ class MotionResult:
         planner: How the path was found.
         goal: ``(dof,)`` the goal reached; ``configuration``: its label (pose goals).
         timing: The timing used (one of ``TIMINGS``).
+        clearance: The usual continuous check of the returned motion (``core.collisions``), None
+            when no pair is checked.
     """
 
     trajectory: Trajectory
@@ -315,6 +318,7 @@ class MotionResult:
     goal: np.ndarray
     configuration: str | None
     timing: str
+    clearance: ClearanceReport | None = None
 
 
 def check_ends(clearance: GroupClearance, certifier: Certifier, task: MotionTask) -> Goals:
@@ -370,7 +374,8 @@ def plan_motion(
         trajectory, path = certified_samples(Certifier(clearance), found.path, lim, *sampling)
         waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
+    report = checked(trajectory, clearance) if len(clearance.pair_names) else None
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,
-        found.planner, q_goal, goals.labels[found.goal], task.timing,
+        found.planner, q_goal, goals.labels[found.goal], task.timing, report,
     )  # fmt: skip

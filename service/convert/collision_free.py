@@ -10,21 +10,17 @@ budget. Limits: the request's lists over the robot's (``service.convert.joint.jo
 from __future__ import annotations
 
 import time
-from typing import Any
 
 import numpy as np
 from starlette.responses import Response
 
 from core.budget import Deadline
-from core.collisions import PROFILE_POINTS
-from core.errors import Collision, InputError
+from core.errors import InputError
 from core.limits import check_positions
 from core.motion.goals import Goals, pose_goals
 from core.motion.plan import MotionResult, MotionTask
-from core.trajectory import Trajectory
-from robots.collision import CollisionChecker
 from robots.model import Robot
-from robots.validity import GroupedClearance
+from service.convert.environment import clearance_diagnostics
 from service.convert.joint import joint_limits
 from service.convert.robot import robot_and_names
 from service.encoding import base_diagnostics, check_finite, json_response, trajectory_body
@@ -85,41 +81,8 @@ def motion_task(
     )
 
 
-def usual_check(
-    check: CollisionChecker | None, clearance: GroupedClearance | None, traj: Trajectory
-) -> dict[str, Any]:
-    """The continuous check of the returned points every trajectory answer passes
-    (``CollisionChecker.check_path``): ``min_clearance`` and ``closest``, and the
-    ``clearance_profile`` (the smallest distance at up to ``PROFILE_POINTS`` returned points, from
-    coal's group minima: the checker's numpy engine takes ten times longer for the same numbers).
-    A contact is ``Collision`` (a certified answer never has one)."""
-    if check is None or clearance is None:
-        return {}
-    result = check.check_path(traj.times, traj.positions)
-    c = result.contact
-    if c is not None:
-        raise Collision(
-            f"{c.links[0]} comes within {c.distance:.4f} m of {c.links[1]} at t = {c.time:.4f} s",
-            extra={"time_from_start": c.time, "links": list(c.links), "distance": c.distance},
-        )
-    n = len(traj.times)
-    rows = np.unique(np.round(np.linspace(0, n - 1, min(n, PROFILE_POINTS))).astype(int))
-    closest = result.closest
-    return {
-        "min_clearance": float(result.min_clearance),
-        "closest": None
-        if closest is None
-        else {"links": list(closest[0]), "time_from_start": float(closest[1])},
-        "clearance_profile": {
-            "time_from_start": traj.times[rows].tolist(),
-            "value": clearance.min_distances(traj.positions[rows]).tolist(),
-        },
-    }
-
-
 def response(
     result: MotionResult,
-    checked: dict[str, Any],
     warnings: tuple[str, ...],
     started: float,
     time_format: str,
@@ -138,7 +101,7 @@ def response(
         path_length_ratio=result.path_length_ratio,
         certified=True,
         goal_configuration=result.configuration,
-        **checked,
+        **clearance_diagnostics(result.clearance, warnings),
     )
     waypoints = np.asarray(result.waypoints, dtype=float).tolist()
     return json_response(

@@ -20,7 +20,6 @@ import numpy as np
 from starlette.responses import Response
 
 from core.errors import InputError
-from core.joint.effort import peak_effort
 from core.joint.motion import PointToPoint
 from core.kinematics import Dynamics
 from core.limits import JointLimits
@@ -133,13 +132,9 @@ def spline_inputs(request: SplineRequest) -> SplineInputs:
     )
 
 
-def effort_diagnostics(inputs: JointInputs | SplineInputs, plan: Any) -> dict[str, Any]:
-    """``peak_effort`` [N m or N] per joint of a plan (its ``profile`` at the returned times and
-    between them) when the robot has dynamics; nothing otherwise."""
-    if inputs.dynamics is None or inputs.gravity is None:
-        return {}
-    times = plan.trajectory.times
-    return {"peak_effort": peak_effort(inputs.dynamics, plan.profile, times, inputs.gravity)}
+def effort_diagnostics(plan: Any) -> dict[str, Any]:
+    """``peak_effort`` [N m or N] per joint of a plan whose robot has dynamics; nothing otherwise."""
+    return {} if plan.peak_effort is None else {"peak_effort": plan.peak_effort}
 
 
 def trajectory_response(

@@ -1,9 +1,9 @@
 """POST /v1/trajectories/collision_free: a joint motion that plans around obstacles.
 
 Thin route: schema -> ``MotionTask`` and the robot's clearance (``service.convert.collision_free``)
--> ``core.motion.plan.plan_motion`` -> the usual continuous check of the returned points
-(``service.convert.collision_free.usual_check``: the request's checker, built once, and its
-``check_path``; start and goal were checked by the core before any search) -> response. Plain ``def``: planning is CPU-bound, so FastAPI runs it in its thread pool.
+-> ``core.motion.plan.plan_motion`` (start and goal checked before any search, the usual
+continuous check of the returned points after it, ``core.collisions``) -> response. Plain ``def``:
+planning is CPU-bound, so FastAPI runs it in its thread pool.
 """
 
 from __future__ import annotations
@@ -59,6 +59,5 @@ def collision_free_trajectory(
     check = collision_check(robot, body.environment, urdf)
     grouped = None if check is None else GroupedClearance(check)
     result = plan_motion(task, grouped or Unobstructed(robot.dof))
-    checked = convert.usual_check(check, grouped, result.trajectory)
     warnings = unchecked_warnings(robot, body.environment, urdf)
-    return convert.response(result, checked, warnings, started, time_format)
+    return convert.response(result, warnings, started, time_format)

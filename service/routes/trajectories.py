@@ -60,6 +60,8 @@ async def joint_trajectory(
             deadline=deadline,
             effort=inputs.effort,
             collision_check=check,
+            dynamics=inputs.dynamics,
+            gravity=inputs.gravity,
         )
         return convert.trajectory_response(
             plan.trajectory,
@@ -67,7 +69,7 @@ async def joint_trajectory(
             (*plan.warnings, *unchecked),
             started,
             time_format,
-            **convert.effort_diagnostics(inputs, plan),
+            **convert.effort_diagnostics(plan),
             **clearance_diagnostics(plan.clearance, unchecked),
         )
 
@@ -107,6 +109,8 @@ async def spline_trajectory(
             deadline=deadline,
             effort=inputs.effort,
             collision_check=check,
+            dynamics=inputs.dynamics,
+            gravity=inputs.gravity,
         )
         return convert.trajectory_response(
             plan.trajectory,
@@ -116,7 +120,7 @@ async def spline_trajectory(
             time_format,
             boundary=body.boundary,
             knot_times=plan.knot_times,
-            **convert.effort_diagnostics(inputs, plan),
+            **convert.effort_diagnostics(plan),
             **clearance_diagnostics(plan.clearance, unchecked),
         )
 

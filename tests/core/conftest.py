@@ -14,7 +14,8 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from core.cartesian.ik_on_path import continuation, reference_at
 from core.cartesian.task import CartesianResult, CartesianTask
-from core.kinematics import DerivedKinematics, IKResult, task_rows
+from core.derived_kinematics import DerivedKinematics
+from core.kinematics import IKResult, task_rows
 from core.path.line import StraightLine
 from core.trajectory import Trajectory
 from tests.toy_kinematics import ToyPlanar2R

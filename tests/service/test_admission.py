@@ -149,15 +149,13 @@ def test_the_ledger_admits_alone_refuses_beyond_and_grows() -> None:
 
 def test_the_estimate_counts_points_times_pairs() -> None:
     """The probe's estimate: 30,002 points (2 of slack) of 6 joints, and the check's key entries
-    (every 16th point) against 8 UR5 capsules x 256 obstacles + 28 self pairs."""
+    (every ``KEY_STEP``-th point, at most the check's own bound ``CHECK_WORKING_BYTES``) against 8
+    UR5 capsules x 256 obstacles + 28 self pairs."""
     demand = estimate(hugging_turn(), "/v1/trajectories/joint", 100_000)
     assert (demand.dof, demand.points, demand.pairs) == (6, 30_002, 8 * 256 + 28)
-    entries = -(-30_002 // 16) * demand.pairs
-    assert demand.at_entry() == (
-        admission.REQUEST_BYTES
-        + 30_002 * demand.sample_bytes
-        + entries * admission.CHECK_BYTES_PER_ENTRY
-    )
+    entries = -(-30_002 // admission.KEY_STEP) * demand.pairs
+    check = min(entries * admission.CHECK_BYTES_PER_ENTRY, admission.CHECK_WORKING_BYTES)
+    assert demand.at_entry() == admission.REQUEST_BYTES + 30_002 * demand.sample_bytes + check
     # Garbage costs nothing; a duration only planning tells is admitted when sampled.
     assert estimate([1, 2], "/v1/trajectories/joint", 100_000).at_entry() == admission.REQUEST_BYTES
     timed = {k: v for k, v in hugging_turn().items() if k not in ("duration", "sample_period")}

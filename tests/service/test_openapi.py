@@ -103,17 +103,17 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
     env = {"PATH": f"{Path(sys.executable).parent}:/usr/bin:/bin"}  # its ruff post-hooks
     done = subprocess.run(
         [generator, "generate", "--path", str(spec), "--meta", "none",
-         "--output-path", str(out / "trajectory_client")],
+         "--output-path", str(out / "generated_client")],
         capture_output=True, text=True, timeout=300, env=env, check=False,
     )  # fmt: skip
     assert done.returncode == 0, done.stdout + done.stderr
     assert "Warning" not in done.stdout + done.stderr, done.stdout + done.stderr
     sys.path.insert(0, str(out))
     try:
-        yield importlib.import_module("trajectory_client")
+        yield importlib.import_module("generated_client")  # not client/'s trajectory_client
     finally:
         sys.path.remove(str(out))
-        for module in [m for m in sys.modules if m.split(".")[0] == "trajectory_client"]:
+        for module in [m for m in sys.modules if m.split(".")[0] == "generated_client"]:
             del sys.modules[module]
 
 
@@ -134,9 +134,9 @@ def test_the_generated_client_has_one_function_per_operation(
 def test_the_generated_client_plans_against_a_live_service(
     generated: Any, service_url: str
 ) -> None:
-    from trajectory_client.api.robots import get_robot, list_robots
-    from trajectory_client.api.trajectories import plan_joint_trajectory
-    from trajectory_client.models import JointTrajectoryRequest, Problem, TrajectoryResponse
+    from generated_client.api.robots import get_robot, list_robots
+    from generated_client.api.trajectories import plan_joint_trajectory
+    from generated_client.models import JointTrajectoryRequest, Problem, TrajectoryResponse
 
     client = generated.Client(base_url=service_url, raise_on_unexpected_status=True)
     robots = list_robots.sync(client=client)

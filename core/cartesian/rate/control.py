@@ -80,7 +80,7 @@ from core.cartesian.rate.steps import (
     time_scale,
 )
 from core.cartesian.rate.tick_qp import DlsQpSolver, ExtraRows
-from core.cartesian.task import CartesianTask
+from core.cartesian.task import MAX_TICKS, CartesianTask
 from core.cartesian.timing import nominal_profile
 from core.cartesian.validate import validated_line
 from core.errors import (
@@ -102,8 +102,6 @@ SETTLE_TIME = 1.0
 """[s] Least time allowed after the nominal duration to reach the goal."""
 SETTLE_FRACTION = 1.0
 """Time allowed after the nominal duration, as a share of it (when longer than ``SETTLE_TIME``)."""
-MAX_TICKS = 1_000_000
-"""Most control ticks one run may simulate (bounds memory and time; ``TooLarge`` beyond)."""
 ACTIVE_TOLERANCE = 1e-6
 """[rad/s] A rate this close to its bound counts as an active limit."""
 _CHECK_EVERY = 256

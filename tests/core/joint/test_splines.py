@@ -225,7 +225,7 @@ def test_the_deadline_stops_allocation() -> None:
 def test_sample_equals_three_evaluations_in_and_out_of_order() -> None:
     """``SplineProfile.sample`` (one interval search, blocked Horner) equals ``profile(t, order)``
     for every boundary condition, at unsorted times, knots and ends included, past one block."""
-    from core.joint.splines import SAMPLE_BLOCK
+    from core.joint.spline_profile import SAMPLE_BLOCK
 
     rng = np.random.default_rng(21)
     waypoints = np.cumsum(rng.uniform(-0.5, 0.5, (9, 3)), axis=0)

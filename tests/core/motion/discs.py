@@ -8,8 +8,25 @@ so ``motion_weights`` are ones (a true Lipschitz bound, as the Protocol asks).
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class Contact:
+    time: float
+    links: tuple[str, str]
+    distance: float
+    index: int
+
+
+@dataclass(frozen=True)
+class PathCheck:
+    contact: Contact | None
+    min_clearance: float
+    closest: tuple[tuple[str, str], float] | None
+    evaluations: int
 
 
 class Discs:
@@ -30,8 +47,34 @@ class Discs:
     def pair_distances(self, q: np.ndarray, pairs: np.ndarray) -> np.ndarray:
         return self.distances(q)[0, pairs]
 
-    def check_path(self, times: np.ndarray, qs: np.ndarray) -> object:
-        return None
+    def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
+        """Exact continuous check (the point moves on straight segments between rows): the first
+        time a disc is nearer than its threshold, and the smallest distance over the motion."""
+        qs = np.atleast_2d(np.asarray(qs, dtype=float))
+        t = np.asarray(times, dtype=float)
+        if len(qs) == 1:
+            qs, t = np.vstack([qs, qs]), np.r_[t, t]
+        a, d = qs[:-1, None, :], np.diff(qs, axis=0)[:, None, :]  # (K, 1, 2)
+        rel = a - self.centers[None]  # (K, P, 2)
+        dd = np.maximum((d * d).sum(-1), 1e-300)
+        u = np.clip(-(rel * d).sum(-1) / dd, 0.0, 1.0)  # closest point of each segment
+        gap = np.linalg.norm(rel + u[..., None] * d, axis=-1) - self.radii  # (K, P)
+        k, p = np.unravel_index(int(np.argmin(gap)), gap.shape)
+        closest = (self.pair_names[p], float(t[k] + u[k, p] * (t[k + 1] - t[k])))
+        contact = None
+        hit = np.argwhere(gap < self.threshold)
+        if len(hit):
+            times_hit = []
+            for kk, pp in hit:  # the first u where |rel + u d| = r + threshold
+                A, B = dd[kk, 0], 2.0 * (rel[kk, pp] * d[kk, 0]).sum()
+                C = (rel[kk, pp] ** 2).sum() - (self.radii[pp] + self.threshold[pp]) ** 2
+                root = max(0.0, (-B - np.sqrt(max(B * B - 4 * A * C, 0.0))) / (2 * A))
+                times_hit.append((t[kk] + min(root, 1.0) * (t[kk + 1] - t[kk]), kk, pp))
+            time, kk, pp = min(times_hit)
+            q = qs[kk] + (time - t[kk]) / max(t[kk + 1] - t[kk], 1e-300) * (qs[kk + 1] - qs[kk])
+            dist = float(np.linalg.norm(q - self.centers[pp]) - self.radii[pp])
+            contact = Contact(float(time), self.pair_names[pp], dist, int(kk))
+        return PathCheck(contact, float(gap[k, p]), closest, gap.size)
 
     def close_pairs(self, q: np.ndarray, d_influence: float):
         d = self.distances(q)[0]
