@@ -19,7 +19,7 @@ import { showView } from './tabs.js';
 import { fkGroups, idealPath, MAX_TOOL_POINTS, subsample, sOfTime, toolPathOf } from './toolpath.js';
 
 export const DEFAULT_TOLERANCE = { position: 1e-3, orientation: 1e-2 };
-let lastPath = null; // arguments of the last renderPath, to redraw on the geometry toggle
+let redraw = null; // draws the last scene of plot-path again (the geometry toggle)
 let lastDeviation = null;
 
 function markItems(ideal, marks, dims) {
@@ -61,7 +61,7 @@ function endArms(ideal, tool, failure) {
  * scene items (the waypoints of a collision-free motion).
  */
 export function renderPath(ideal, tool, marks, knotsTool, failure, extra) {
-  lastPath = [ideal, tool, marks, knotsTool, failure, extra];
+  redraw = () => renderPath(ideal, tool, marks, knotsTool, failure, extra);
   if (!ideal && !(tool && tool.p.length)) {
     placeholder('plot-path', 'No path: the start (or goal) joints were refused');
     return;
@@ -99,8 +99,10 @@ export function renderPath(ideal, tool, marks, knotsTool, failure, extra) {
     `${robotName()}-tool-path`);
 }
 
-export function redrawPath() {
-  if (lastPath) renderPath(...lastPath);
+/** Draw the last scene of the tool path plot again (``fn``: how, for a scene drawn elsewhere). */
+export function redrawPath(fn) {
+  if (typeof fn === 'function') redraw = fn;
+  else if (redraw) redraw();
 }
 
 export function renderDeviation(diag, tolerance, marks, emptyMessage) {

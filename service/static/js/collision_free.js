@@ -8,6 +8,7 @@
  */
 
 import { api, framePoints, problemOf } from './api.js';
+import { redrawPath } from './cartesian_view.js';
 import { renderClearance } from './clearance.js';
 import { fmt } from './dom.js';
 import { COLLISION_FREE, collisionFreeRequest } from './joint_form.js';
@@ -90,6 +91,7 @@ async function drawEnds(req, problem) {
   if (a) items.push(...geometryItems(a.frames, 'collision geometry at start', 'show-geometry'));
   items.push(...obstacleItems());
   if (items.length) drawScene('plot-path', items, null, `${robotName()}-collision-free`);
+  redrawPath(() => drawEnds(req, problem)); // the geometry toggle draws this scene again
 }
 
 export async function runCollisionFree() {

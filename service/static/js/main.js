@@ -47,7 +47,7 @@ function wireButtons() {
     ['c-preset', 'j-preset', 'p-preset'].forEach((id) => { $(id).value = ''; });
     selectRobot(e.target.value);
   });
-  $('show-geometry').addEventListener('change', redrawPath);
+  $('show-geometry').addEventListener('change', () => redrawPath());
   $('form-cartesian').addEventListener('submit', (e) => { e.preventDefault(); runCartesian(); });
   $('form-joint').addEventListener('submit', (e) => {
     e.preventDefault();
