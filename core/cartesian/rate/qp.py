@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import qpsolvers
@@ -187,7 +187,7 @@ def check_solver(solver: str) -> str:
     return solver
 
 
-def solve_dls_qp(problem: qpsolvers.Problem, solver: str = "osqp", **options: object) -> QpStep:
+def solve_dls_qp(problem: qpsolvers.Problem, solver: str = "osqp", **options: Any) -> QpStep:
     """Solve ``problem`` (from ``build_dls_qp``) with any installed qpsolvers backend.
 
     ``options`` go to the backend; for ``osqp`` they default to ``OSQP_SETTINGS`` with
