@@ -55,7 +55,7 @@ import numpy as np
 
 from core.cartesian.rate.dls_tick import DlsTick
 from core.cartesian.rate.pinv_tick import PinvTick
-from core.cartesian.rate.qp import RateLimits, check_solver
+from core.cartesian.rate.qp import BRAKING_SHARE, SINGULAR_REGION, RateLimits, check_solver
 from core.cartesian.rate.retime import ACCELERATION_TRIGGER, joint_timing, peak_acceleration_ratio
 from core.cartesian.rate.setpoint import LineSetpoint, PathSetpoint, SetpointClock, setpoint_for
 from core.cartesian.rate.steps import first_limit, pose_error, stuck
@@ -64,10 +64,11 @@ from core.cartesian.rate.ticks import TickController, TickLog
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import nominal_profile
 from core.cartesian.validate import validated_line
-from core.errors import InputError, PlanningError, TooLarge
+from core.errors import InputError, NoConvergence, PlanningError, TooLarge
 from core.kinematics import task_rows
 from core.path import Path
 from core.timing import Profile
+from core.trajectory import DEFAULT_SAMPLE_PERIOD
 
 FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
@@ -81,8 +82,16 @@ SETTLE_FRACTION = 1.0
 """Time allowed after the nominal duration, as a share of it (when longer than ``SETTLE_TIME``)."""
 MAX_TICKS = 1_000_000
 """Most control ticks one run may simulate (bounds memory and time; ``TooLarge`` beyond)."""
+SPEED_CAP_SHARE = 1.0 - 1e-4
+"""The ticks keep the tool's speed limits with this share: the returned velocities blend the
+rates of neighbouring ticks (``core.cartesian.rate.smooth``) under a Jacobian that turns between
+them, which measured up to 3e-6 of the limit over it at 10 ms sampling."""
 ACTIVE_TOLERANCE = 1e-6
 """[rad/s] A rate this close to its bound counts as an active limit."""
+STALL_TICKS = 100
+"""A run that ends short of the goal is stuck at a singularity when the smallest singular value
+fell below the singular region within this many ticks of its end (the DLS's acceleration-bounded
+rates hover about a singular configuration rather than settle in it)."""
 _CHECK_EVERY = 256
 """Ticks between deadline checks."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
@@ -138,17 +147,51 @@ def nominal_timing(task: CartesianTask, line: Path) -> Profile:
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
-    """Run the controller of ``method`` along the task's line (see the module docstring); where
-    no ``duration`` is given and the run's joints accelerate over ``ACCELERATION_TRIGGER`` of their
-    limits, run it again on the clock ``core.cartesian.rate.retime.joint_timing`` slows for them."""
-    run, limits = _simulate(task, method, extra_rows), task.robot.acceleration_limits
-    if run.failure is None and task.duration is None:
-        if peak_acceleration_ratio(run.rates, run.dt, limits) > ACCELERATION_TRIGGER:
-            slower = joint_timing(task, validated_line(task), run.s, run.positions)
-            if slower is not None:
-                run = _simulate(task, method, extra_rows, slower.profile)
-                run = replace(run, timing_warnings=slower.warnings)
+    """Run the controller of ``method`` along the task's line (see the module docstring). Where no
+    ``duration`` is given and the joints' acceleration limits held the run back, run it again on
+    the clock ``core.cartesian.rate.retime.joint_timing`` slows for them along the joint path a run
+    took: the run's own when its joints accelerated over ``ACCELERATION_TRIGGER`` of their limits
+    (``resolved_rate``, and the DLS with ``allow_violations``); for the DLS, whose rates keep the
+    limits, when it failed or (without extra rows: they leave the line on purpose) lagged off
+    the tolerances, the path of a run without the acceleration box."""
+    run = _simulate(task, method, extra_rows)
+    if task.duration is not None:
+        return run
+    if method == "resolved_rate_dls" and not task.allow_violations:
+        if extra_rows is not None or not _lagged(task, run):  # (rows leave the line on purpose)
+            return run
+        path = _simulate(task, method, extra_rows, boxed=False)
+    else:
+        limits = task.robot.acceleration_limits
+        if run.failure is not None or peak_acceleration_ratio(run.rates, run.dt, limits) <= (
+            ACCELERATION_TRIGGER
+        ):
+            return run
+        path = run
+    if path.failure is None:
+        slower = joint_timing(task, validated_line(task), path.s, path.positions)
+        if slower is not None:
+            run = _simulate(task, method, extra_rows, slower.profile)
+            run = replace(run, timing_warnings=slower.warnings)
     return run
+
+
+def _lagged(task: CartesianTask, run: RateRun) -> bool:
+    """Whether the DLS's acceleration box held ``run`` back: it failed to converge or strayed off
+    the tolerances, its rate bounds were active where it first strayed, and from a little before
+    there on it met no singular region (a stall at the rim or a singularity, a pinned joint, is no
+    lag)."""
+    if run.failure is not None and not isinstance(run.failure, NoConvergence):
+        return False
+    off = (run.tracking_position > task.position_tolerance) | (
+        run.tracking_orientation > task.orientation_tolerance
+    )
+    strayed = np.flatnonzero(off[:-1])
+    if not strayed.size:
+        return False
+    first = max(0, int(strayed[0]) - STALL_TICKS)
+    active = run.active[first : int(strayed[0]) + 1].any()
+    return bool(active and run.sigma[first:].min() >= SINGULAR_REGION)
 
 
 def _simulate(
@@ -156,8 +199,11 @@ def _simulate(
     method: str,
     extra_rows: ExtraRows | None = None,
     timing: Profile | None = None,
+    boxed: bool = True,
 ) -> RateRun:
-    """One run of the controller of ``method`` on the clock ``timing`` (default ``nominal_timing``).
+    """One run of the controller of ``method`` on the clock ``timing`` (default ``nominal_timing``);
+    the DLS bounds its rates by the acceleration limits when ``boxed`` (and the task does not
+    ``allow_violations``).
 
     ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.tick_qp.ExtraRows``:
     obstacle avoidance); OSQP only, and not with ``resolved_rate``. Planning failures end the run
@@ -192,7 +238,7 @@ def _simulate(
         )
     setpoint = setpoint_for(line, timing, dt, nominal)
     log = TickLog(total + 1, task.robot.dof, with_bounds=dls)
-    controller = _controller(task, method, log, setpoint, dt, solver, extra_rows)
+    controller = _controller(task, method, log, setpoint, dt, solver, extra_rows, boxed)
     n, failure = _loop(task, line, setpoint, controller, log, total)
     return _run_of(log, n, dt, nominal, timing, controller.fallbacks, failure, dls)
 
@@ -205,6 +251,7 @@ def _controller(
     dt: float,
     solver: str,
     extra_rows: ExtraRows | None,
+    boxed: bool,
 ) -> TickController:
     """The controller of ``method`` for this run, with the tool's speed caps (none with a
     duration) and the feedback gain ``min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)``."""
@@ -214,17 +261,37 @@ def _controller(
     lin_cap, ang_cap = task.speeds()  # the tool's speed limits (none with a duration)
     caps = (
         len(rows[rows < 3]),  # the linear rows: 0..2, or 0..1
-        math.inf if lin_cap is None else float(lin_cap),
-        math.inf if ang_cap is None or not pose_task else float(ang_cap),
+        math.inf if lin_cap is None else float(lin_cap) * SPEED_CAP_SHARE,
+        math.inf if ang_cap is None or not pose_task else float(ang_cap) * SPEED_CAP_SHARE,
     )
     if method == "resolved_rate":
         return PinvTick(robot, log, limits, rows, dt, gain, caps)
     # the largest unit twist along the path (one constant on a line; sampled densely on an
     # arc, 1 % added for the samples between), over the smallest velocity limit
     biggest = setpoint.max_unit[rows]
-    margin = 1.0 + 1e-6 if isinstance(setpoint, LineSetpoint) else 1.01
-    twist_bound = math.sqrt(float(biggest @ biggest)) * margin / float(limits.velocity.min())
-    return DlsTick(log, limits, rows, dt, gain, twist_bound, solver, extra_rows, caps)
+    room = 1.0 + 1e-6 if isinstance(setpoint, LineSetpoint) else 1.01
+    twist_bound = math.sqrt(float(biggest @ biggest)) * room / float(limits.velocity.min())
+    margin = _smoothing_margin(task, limits, setpoint.end)
+    boxed = boxed and not task.allow_violations  # (which accepts accelerations over the limits)
+    return DlsTick(
+        log, limits, rows, dt, gain, twist_bound, solver, extra_rows, caps, margin, boxed
+    )
+
+
+def _smoothing_margin(task: CartesianTask, limits: RateLimits, duration: float) -> np.ndarray:
+    """[rad or m] (dof,): room the DLS keeps from each position limit for the returned motion,
+    which smooths the controller's over about one returned interval h (``core.cartesian.rate.smooth``:
+    positions within ``h^2/8`` of the change of acceleration of the controller's), where a joint
+    brakes to a stop at a limit (at ``BRAKING_SHARE a_max``): ``BRAKING_SHARE a_max h^2 / 4``,
+    at most a tenth of the joint's range. ``h``: ``sample_period`` (default 0.01 s), or the
+    nominal ``duration`` [s] over ``samples - 1``."""
+    if task.samples is not None:
+        h = duration / max(int(task.samples) - 1, 1)
+    else:
+        h = DEFAULT_SAMPLE_PERIOD if task.sample_period is None else float(task.sample_period)
+    acceleration = np.asarray(task.robot.acceleration_limits, dtype=float)
+    span = limits.position[:, 1] - limits.position[:, 0]
+    return np.minimum(BRAKING_SHARE * acceleration * h * h / 4.0, 0.1 * span)
 
 
 def _loop(
@@ -246,6 +313,7 @@ def _loop(
     )
     row_list, goal_p, goal_o = rows.tolist(), task.position_tolerance, task.orientation_tolerance
     clock, positions = SetpointClock(setpoint, total + 1), log.positions
+    rest = np.asarray(robot.acceleration_limits, dtype=float) * dt  # a rate one tick from rest
     positions[0] = task.q_start
     q, unit, unit_twist, units = positions[0], None, np.zeros(0), []
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
@@ -266,15 +334,18 @@ def _loop(
         log.tracking_position[k], log.tracking_orientation[k] = err_p, err_o
         at_end = clock.tau >= setpoint.end - 0.5 * dt
         if at_end and err_p <= GOAL_FRACTION * goal_p and err_o <= GOAL_FRACTION * goal_o:
-            return k + 1, None
+            if bool((np.abs(log.rates[k - 1]) <= rest).all()):  # (and the rates come to rest)
+                return k + 1, None
         if k == total:
             if at_end and err_p <= goal_p and err_o <= goal_o:
                 return k + 1, None
-            first = None
-            if isinstance(controller, DlsTick):
-                lo_q, hi_q = np.asarray(robot.position_limits, dtype=float).T
-                first = first_limit(positions[1 : k + 1], lo_q, hi_q, log.s)
-            return k + 1, stuck(robot, line, q, log.sigma[k - 1], first, at_end, s, dt * k)
+            first, held = None, None
+            if isinstance(controller, DlsTick):  # (its joints stop short of a limit by a margin)
+                held = controller.held_box()
+                first = first_limit(positions[1 : k + 1], held[0], held[1], log.s)
+            sigma = float(log.sigma[max(0, k - STALL_TICKS) : k].min())  # (the DLS may hover)
+            failure = stuck(robot, line, q, sigma, first, at_end, s, dt * k, held)
+            return k + 1, failure
         # (zip without strict=True in the controllers, ~0.8 us less: the lengths are equal)
         e_task = e if all_rows else [e[i] for i in row_list]
         kappa = controller.step(k, q, J_now, e_task, s, sd, unit_twist, units)

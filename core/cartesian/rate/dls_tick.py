@@ -8,9 +8,10 @@
    twist within ``TIME_SCALE_MARGIN`` of the velocity limits (online time scaling, Dahl & Nielsen,
    IEEE Trans. Robot. Autom. 6(5), 1990), skipped where a norm bound, then a Cholesky solve, show it
    is 1.
-3. The rate bounds (``rate_bounds``): velocity limits and ``(q_min - q)/dt <= qd <= (q_max -
-   q)/dt``; left at the velocity limits over the ticks ``clear_ticks`` shows no position limit can
-   reach.
+3. The rate bounds (``rate_bounds``): velocity limits, the previous tick's rates +- ``a_max dt``
+   (the rates start at rest) and the braking bound that keeps every joint able to stop before its
+   position limits (less ``margin``); the braking bound is skipped over the ticks ``clear_ticks``
+   shows no joint at full speed can come within its stopping distance of a limit.
 4. The QP ``min ||J qd - V||^2 + lambda^2 ||qd||^2`` within the bounds (and the extra rows: obstacle
    avoidance) for ``V = kappa s' unit_twist + K e`` on one warm-started OSQP workspace (any other
    qpsolvers backend through ``solve_dls_qp``), then the tool speed cap (``speed_scale``).
@@ -21,13 +22,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
 from core.cartesian.rate.qp import (
+    BRAKING_SHARE,
     REDUNDANCY_DAMPING,
     SINGULAR_REGION,
     RateLimits,
+    braking_bounds,
     build_dls_qp,
     damping,
     solve_dls_qp,
@@ -55,7 +59,7 @@ class DlsTick:
 
     Args:
         log: The run's arrays (rates, positions, bounds and the figures are written there).
-        limits: Joint position and velocity limits.
+        limits: Joint position, velocity and acceleration limits.
         rows: Task rows of the Jacobian (``task_rows``).
         dt: Control period [s].
         gain: Feedback gain K [1/s].
@@ -64,6 +68,10 @@ class DlsTick:
         solver: qpsolvers name (``osqp``: the per-tick workspace).
         extra_rows: Extra inequality rows per tick (OSQP only), or None.
         caps: Tool speed limits (linear rows, linear [m/s], angular [rad/s]); ``inf``: none.
+        margin: ``(dof,)`` [rad or m] kept from each position limit (room for the smoothing of
+            ``core.cartesian.rate.output``).
+        box_acceleration: Bound the rates by the previous ones +- ``a_max dt`` (False with
+            ``allow_violations``: the client accepts accelerations over the limits).
     """
 
     def __init__(
@@ -77,6 +85,8 @@ class DlsTick:
         solver: str,
         extra_rows: ExtraRows | None,
         caps: tuple[int, float, float],
+        margin: np.ndarray,
+        box_acceleration: bool = True,
     ) -> None:
         dof = limits.velocity.shape[0]
         self.log, self.limits, self.dt, self.gain = log, limits, dt, gain
@@ -88,8 +98,15 @@ class DlsTick:
         self.floor = REDUNDANCY_DAMPING if dof > len(rows) else 0.0
         self.lo_q, self.hi_q = limits.position[:, 0], limits.position[:, 1]
         self.vmax, self.low_v = limits.velocity, -limits.velocity
-        self.box = np.stack([self.lo_q, self.hi_q])
-        log.bounds[:, 0], log.bounds[:, 1] = -self.vmax, self.vmax  # while no limit is in reach
+        if limits.acceleration is None:
+            raise ValueError("the DLS tick needs acceleration limits")
+        self.margin, self.rest, self.boxed = margin, np.zeros(dof), box_acceleration
+        self.step_a = limits.acceleration * dt
+        # within a stopping distance (and a tick at full speed) of these, braking binds
+        stop = self.vmax * self.vmax / (2.0 * BRAKING_SHARE * limits.acceleration)
+        stop += self.vmax * dt
+        self.reach = np.stack([self.lo_q + margin + stop, self.hi_q - margin - stop])
+        log.bounds[:, 0], log.bounds[:, 1] = -self.vmax, self.vmax  # (unboxed, clear ticks)
         self.shift_lam = 0.0
         self.shift: np.ndarray | None = None  # lam^2 I, kept while lam is (the Panda's floor)
         self.clear_until, self.recheck = 0, 0  # ticks k < clear_until: bounds (-v_max, v_max)
@@ -118,11 +135,11 @@ class DlsTick:
         out = log.rates[k]
         start = time.perf_counter()
         if self.qp is not None:
-            rows = () if self.extra_rows is None else self.extra_rows(q)
+            rows = () if self.extra_rows is None else _within(self.extra_rows(q), B)
             log.iterations[k], fell_back, _ = self.qp.solve(J, V, lam, B[0], B[1], out, rows)
             log.solve_time[k] = time.perf_counter() - start
         else:
-            problem = build_dls_qp(J, V, lam, q, self.limits, dt)
+            problem = build_dls_qp(J, V, lam, q, self.limits, dt, (B[0], B[1]))
             one = solve_dls_qp(problem, self.solver)
             out[:] = one.x
             log.iterations[k], log.solve_time[k], fell_back = (
@@ -133,8 +150,10 @@ class DlsTick:
         self.fallbacks += fell_back
         if self.capped:  # the tool's speed limits hold for the feedback term too
             c = speed_scale(J_now, out, *self.caps)
-            if c < 1.0:
+            if c < 1.0:  # (then back into the acceleration box: the joints' limits come first)
                 out *= c
+                np.maximum(out, B[0], out=out)
+                np.minimum(out, B[1], out=out)
         nxt = log.positions[k + 1]
         np.multiply(out, dt, out=nxt)
         np.add(q, nxt, out=nxt)
@@ -172,16 +191,53 @@ class DlsTick:
         return kappa, lam
 
     def _bounds(self, k: int, q: np.ndarray) -> tuple[np.ndarray, bool]:
-        """The rate bounds of tick ``k`` (``rate_bounds(q, limits, dt)``, written in place into
-        ``log.bounds[k]`` as they stand while clear) and whether the tick is clear."""
-        B = self.log.bounds[k]
+        """The rate bounds of tick ``k`` (``rate_bounds(q, limits, dt, rates[k - 1], margin)``,
+        without the previous rates when not boxed), written in place into ``log.bounds[k]``, and
+        whether the tick is clear (the braking bound cannot bind: skipped, and the next
+        positions need no clipping)."""
+        log, B = self.log, self.log.bounds[k]
         clear = k < self.clear_until
+        if self.boxed:
+            previous = log.rates[k - 1] if k else self.rest
+            np.subtract(previous, self.step_a, out=B[0])
+            np.maximum(B[0], self.low_v, out=B[0])
+            np.add(previous, self.step_a, out=B[1])
+            np.minimum(B[1], self.vmax, out=B[1])
+        elif not clear:
+            B[0], B[1] = self.low_v, self.vmax
         if not clear:
-            np.subtract(self.box, q, out=B)
-            np.divide(B, self.dt, out=B)
-            if k >= self.recheck:
-                self.clear_until = k + 1 + clear_ticks(B, self.vmax, len(self.log.s))
-                self.recheck = self.clear_until if self.clear_until > k + 1 else k + RECHECK
-            np.maximum(B, self.low_v, out=B)
-            np.minimum(B, self.vmax, out=B)
+            self._look_ahead(k, (self.reach - q) / self.dt)
+            brake_lo, brake_hi = braking_bounds(q, self.limits, self.dt, self.margin)
+            np.maximum(B[0], brake_lo, out=B[0])
+            np.minimum(B[1], brake_hi, out=B[1])
+            np.minimum(B[0], B[1], out=B[0])  # (never empty but by rounding: upper wins)
         return B, clear
+
+    def held_box(self) -> np.ndarray:
+        """``(2, dof)``: where a joint counts as held at a position limit (the limits less the
+        margin the braking bound keeps, and 1e-9 for rounding)."""
+        slack = 1e-9
+        return np.stack([self.lo_q + self.margin + slack, self.hi_q - self.margin - slack])
+
+    def _look_ahead(self, k: int, raw: np.ndarray) -> None:
+        """Every ``RECHECK`` ticks near a limit: the ticks from ``k`` on that no position bound can
+        bind (``clear_ticks`` of ``raw``: ``(reach - q) / dt``, the position terms)."""
+        if k >= self.recheck:
+            self.clear_until = k + 1 + clear_ticks(raw, self.vmax, len(self.log.s))
+            self.recheck = self.clear_until if self.clear_until > k + 1 else k + RECHECK
+
+
+def _within(
+    rows: Sequence[tuple[np.ndarray, float]], B: np.ndarray
+) -> Sequence[tuple[np.ndarray, float]]:
+    """``rows`` (``a . qd >= b``) with each ``b`` lowered to at most the largest ``a . qd`` the rate
+    bounds ``B`` (2, dof) allow, so no row alone empties the QP: a velocity damper asking for more
+    than this tick's accelerations can give is met as far as they can (the continuous collision
+    check of the returned motion has the last word)."""
+    if not rows:
+        return rows
+    out = []
+    for a, b in rows:
+        best = float(np.where(a > 0.0, a * B[1], a * B[0]).sum())
+        out.append((a, min(b, best - 1e-12 * (1.0 + abs(best)))))
+    return out

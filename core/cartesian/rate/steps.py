@@ -165,13 +165,14 @@ def pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
     return None, qd
 
 
-def stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningError:
-    """Why a DLS run ended short of the goal: a pinned joint, the velocity limits (the path clock
-    did not reach the end), damping, or plain non-convergence."""
+def stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed, held=None) -> PlanningError:
+    """Why a DLS run ended short of the goal: a pinned joint (at or beyond ``held`` ``(2, dof)``,
+    default the position limits), the velocity limits (the path clock did not reach the end),
+    damping, or plain non-convergence."""
     s_reached = float(line.deviation(robot.fk(q)[None]).s[0])
     if first_limit is not None:
         s_hit, j = first_limit
-        lo, hi = robot.position_limits[j]
+        lo, hi = robot.position_limits[j] if held is None else held[:, j]
         if q[j] <= lo or q[j] >= hi:
             detail = (
                 f"joint {robot.joint_names[j]} is held at its position limit (reached at "
