@@ -24,9 +24,12 @@ T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nom
      It refuses to step where the smallest singular value is below ``PINV_SINGULAR_THRESHOLD``
      (``Singularity``), where a rate exceeds its limit (``JointRateLimit``, the notes' warning) or
      where the step would leave the position limits (``JointLimit``), each with ``s``.
-   - ``resolved_rate_dls``: the QP of ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at
-     least ``REDUNDANCY_DAMPING`` for a redundant arm, so the step is the minimum-norm one); its
-     rates always respect the velocity and position limits. Near a singularity the tool leaves the
+   - ``resolved_rate_dls`` (``core.cartesian.rate.dls_tick``): the QP of
+     ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at least
+     ``REDUNDANCY_DAMPING`` for a redundant arm, so the step is the minimum-norm one); its rates
+     always respect the velocity limits, the acceleration limits (the previous rates +- ``a_max
+     dt``; not with ``allow_violations``) and the position limits with room to brake. Near a
+     singularity the tool leaves the
      line (measured and reported). So that velocity bounds slow the tool down along the line rather
      than push it off the line, the path clock runs at ``tau' = kappa <= 1``: the largest rate that
      keeps the DLS rates of the feedforward twist within ``TIME_SCALE_MARGIN`` of the limits (online
@@ -34,10 +37,12 @@ T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nom
      keeps ``kappa = 1``: it is the classic reference.
    Without a ``duration`` the rates are scaled down where the tool's own speeds ``|J_p qd|``,
    ``|J_w qd|`` would exceed the task's limits (the feedback term's share: ``steps.speed_scale``).
-4. ``q += qd dt`` (explicit Euler; the returned positions lie on this piecewise-linear path).
+4. ``q += qd dt`` (explicit Euler; ``core.cartesian.rate.smooth`` turns the ticks into the returned
+   C2 motion).
 
 When the path clock has reached the end the setpoint rests at the goal and the run ends once the pose
-error is within ``GOAL_FRACTION`` of the tolerances; the run may go on past the nominal duration by
+error is within ``GOAL_FRACTION`` of the tolerances and every rate within one tick's acceleration
+of rest; the run may go on past the nominal duration by
 ``max(SETTLE_TIME, SETTLE_FRACTION T)``. If it is then within the tolerances it ends there (with a
 warning); otherwise the DLS fails with ``JointLimit`` (a joint held at its position limit),
 ``JointRateLimit`` (the velocity limits kept the path clock from the end), ``Singularity`` (stuck
@@ -49,18 +54,18 @@ where the damping is active: a singularity or the workspace boundary) or ``NoCon
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from core.cartesian.rate.dls_tick import DlsTick
+from core.cartesian.rate.dls_tick import DlsTick, smoothing_margin
 from core.cartesian.rate.pinv_tick import PinvTick
-from core.cartesian.rate.qp import BRAKING_SHARE, SINGULAR_REGION, RateLimits, check_solver
+from core.cartesian.rate.qp import SINGULAR_REGION, RateLimits, check_solver
 from core.cartesian.rate.retime import ACCELERATION_TRIGGER, joint_timing, peak_acceleration_ratio
 from core.cartesian.rate.setpoint import LineSetpoint, PathSetpoint, SetpointClock, setpoint_for
 from core.cartesian.rate.steps import first_limit, pose_error, stuck
 from core.cartesian.rate.tick_qp import ExtraRows
-from core.cartesian.rate.ticks import TickController, TickLog
+from core.cartesian.rate.ticks import RateRun, TickController, TickLog
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import nominal_profile
 from core.cartesian.validate import validated_line
@@ -68,7 +73,6 @@ from core.errors import InputError, NoConvergence, PlanningError, TooLarge
 from core.kinematics import task_rows
 from core.path import Path
 from core.timing import Profile
-from core.trajectory import DEFAULT_SAMPLE_PERIOD
 
 FEEDBACK_GAIN = 20.0
 """K [1/s]: pose-error feedback gain (error time constant 50 ms)."""
@@ -86,8 +90,6 @@ SPEED_CAP_SHARE = 1.0 - 1e-4
 """The ticks keep the tool's speed limits with this share: the returned velocities blend the
 rates of neighbouring ticks (``core.cartesian.rate.smooth``) under a Jacobian that turns between
 them, which measured up to 3e-6 of the limit over it at 10 ms sampling."""
-ACTIVE_TOLERANCE = 1e-6
-"""[rad/s] A rate this close to its bound counts as an active limit."""
 STALL_TICKS = 100
 """A run that ends short of the goal is stuck at a singularity when the smallest singular value
 fell below the singular region within this many ticks of its end (the DLS's acceleration-bounded
@@ -95,49 +97,6 @@ rates hover about a singular configuration rather than settle in it)."""
 _CHECK_EVERY = 256
 """Ticks between deadline checks."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
-
-
-@dataclass(frozen=True)
-class RateRun:
-    """The simulated control ticks of one run (n ticks, ``k = 0..n-1``; steps ``k = 0..n-2``).
-
-    Attributes:
-        dt: Control period [s].
-        nominal_ticks: Ticks in the nominal duration (the first tick at or after its end).
-        nominal_duration: Duration of the nominal profile s(t) [s].
-        positions: Joint positions at each tick ``(n, dof)``.
-        rates: Joint rates commanded from each tick on ``(n, dof)``; the last row is zero.
-        s: Path parameter of the setpoint at each tick ``(n,)``.
-        sigma: Smallest singular value of the task Jacobian at each step ``(n-1,)``.
-        damping: lambda at each step ``(n-1,)`` (0 for ``resolved_rate``).
-        time_scale: Rate of the path clock at each step ``(n-1,)`` (1: nominal speed).
-        active: Whether a rate bound was active at each step ``(n-1,)``.
-        iterations: QP iterations at each step ``(n-1,)`` (0 for ``resolved_rate``).
-        solve_time: QP update and solve time [s] at each step ``(n-1,)``.
-        fallbacks: Steps where OSQP stopped short and the exact bounded least squares took over.
-        tracking_position: Distance [m] from the setpoint at each tick ``(n,)``.
-        tracking_orientation: Angle [rad] from the setpoint at each tick ``(n,)``.
-        failure: Why the run stopped short of the goal, or None.
-        timing_warnings: Where the clock was slowed for the joint limits (``retime``).
-    """
-
-    dt: float
-    nominal_ticks: int
-    nominal_duration: float
-    positions: np.ndarray
-    rates: np.ndarray
-    s: np.ndarray
-    sigma: np.ndarray
-    damping: np.ndarray
-    time_scale: np.ndarray
-    active: np.ndarray
-    iterations: np.ndarray
-    solve_time: np.ndarray
-    fallbacks: int
-    tracking_position: np.ndarray
-    tracking_orientation: np.ndarray
-    failure: PlanningError | None
-    timing_warnings: tuple[str, ...] = ()
 
 
 def nominal_timing(task: CartesianTask, line: Path) -> Profile:
@@ -240,7 +199,7 @@ def _simulate(
     log = TickLog(total + 1, task.robot.dof, with_bounds=dls)
     controller = _controller(task, method, log, setpoint, dt, solver, extra_rows, boxed)
     n, failure = _loop(task, line, setpoint, controller, log, total)
-    return _run_of(log, n, dt, nominal, timing, controller.fallbacks, failure, dls)
+    return log.run(n, dt, nominal, float(timing.duration), controller.fallbacks, failure, dls)
 
 
 def _controller(
@@ -271,27 +230,11 @@ def _controller(
     biggest = setpoint.max_unit[rows]
     room = 1.0 + 1e-6 if isinstance(setpoint, LineSetpoint) else 1.01
     twist_bound = math.sqrt(float(biggest @ biggest)) * room / float(limits.velocity.min())
-    margin = _smoothing_margin(task, limits, setpoint.end)
+    margin = smoothing_margin(task, limits, setpoint.end)
     boxed = boxed and not task.allow_violations  # (which accepts accelerations over the limits)
     return DlsTick(
         log, limits, rows, dt, gain, twist_bound, solver, extra_rows, caps, margin, boxed
     )
-
-
-def _smoothing_margin(task: CartesianTask, limits: RateLimits, duration: float) -> np.ndarray:
-    """[rad or m] (dof,): room the DLS keeps from each position limit for the returned motion,
-    which smooths the controller's over about one returned interval h (``core.cartesian.rate.smooth``:
-    positions within ``h^2/8`` of the change of acceleration of the controller's), where a joint
-    brakes to a stop at a limit (at ``BRAKING_SHARE a_max``): ``BRAKING_SHARE a_max h^2 / 4``,
-    at most a tenth of the joint's range. ``h``: ``sample_period`` (default 0.01 s), or the
-    nominal ``duration`` [s] over ``samples - 1``."""
-    if task.samples is not None:
-        h = duration / max(int(task.samples) - 1, 1)
-    else:
-        h = DEFAULT_SAMPLE_PERIOD if task.sample_period is None else float(task.sample_period)
-    acceleration = np.asarray(task.robot.acceleration_limits, dtype=float)
-    span = limits.position[:, 1] - limits.position[:, 0]
-    return np.minimum(BRAKING_SHARE * acceleration * h * h / 4.0, 0.1 * span)
 
 
 def _loop(
@@ -354,41 +297,3 @@ def _loop(
         q = positions[k + 1]
         clock.advance(kappa, dt)
     return total + 1, None
-
-
-def _run_of(
-    log: TickLog,
-    n: int,
-    dt: float,
-    nominal: int,
-    timing: Profile,
-    fallbacks: int,
-    failure: PlanningError | None,
-    dls: bool,
-) -> RateRun:
-    """The ``RateRun`` of the first ``n`` ticks of ``log``; a step counts as active where a rate
-    is within ``ACTIVE_TOLERANCE`` of its bound (DLS)."""
-    steps = n - 1
-    active: np.ndarray = np.zeros(steps, dtype=bool)
-    if dls:
-        R, B = log.rates[:steps], log.bounds[:steps]
-        near = (R <= B[:, 0] + ACTIVE_TOLERANCE) | (R >= B[:, 1] - ACTIVE_TOLERANCE)
-        active = np.asarray(near.any(axis=1))
-    return RateRun(
-        dt=dt,
-        nominal_ticks=nominal,
-        nominal_duration=float(timing.duration),
-        positions=log.positions[:n],
-        rates=log.rates[:n],
-        s=log.s[:n],
-        sigma=log.sigma[:steps],
-        damping=log.damping[:steps],
-        time_scale=log.time_scale[:steps],
-        active=active,
-        iterations=log.iterations[:steps],
-        solve_time=log.solve_time[:steps],
-        fallbacks=int(fallbacks),
-        tracking_position=log.tracking_position[:n],
-        tracking_orientation=log.tracking_orientation[:n],
-        failure=failure,
-    )

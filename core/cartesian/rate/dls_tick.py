@@ -48,7 +48,9 @@ from core.cartesian.rate.steps import (
 )
 from core.cartesian.rate.tick_qp import DlsQpSolver, ExtraRows
 from core.cartesian.rate.ticks import TickLog
+from core.cartesian.task import CartesianTask
 from core.errors import PlanningError
+from core.trajectory import DEFAULT_SAMPLE_PERIOD
 
 RECHECK = 16
 """Ticks between looks for the clear span (``clear_ticks``) while a joint is near a position limit."""
@@ -241,3 +243,19 @@ def _within(
         best = float(np.where(a > 0.0, a * B[1], a * B[0]).sum())
         out.append((a, min(b, best - 1e-12 * (1.0 + abs(best)))))
     return out
+
+
+def smoothing_margin(task: CartesianTask, limits: RateLimits, duration: float) -> np.ndarray:
+    """[rad or m] (dof,): room the DLS keeps from each position limit for the returned motion,
+    which smooths the controller's over about one returned interval h (``core.cartesian.rate.smooth``:
+    positions within ``h^2/8`` of the change of acceleration of the controller's), where a joint
+    brakes to a stop at a limit (at ``BRAKING_SHARE a_max``): ``BRAKING_SHARE a_max h^2 / 4``,
+    at most a tenth of the joint's range. ``h``: ``sample_period`` (default 0.01 s), or the
+    nominal ``duration`` [s] over ``samples - 1``."""
+    if task.samples is not None:
+        h = duration / max(int(task.samples) - 1, 1)
+    else:
+        h = DEFAULT_SAMPLE_PERIOD if task.sample_period is None else float(task.sample_period)
+    acceleration = np.asarray(task.robot.acceleration_limits, dtype=float)
+    span = limits.position[:, 1] - limits.position[:, 0]
+    return np.minimum(BRAKING_SHARE * acceleration * h * h / 4.0, 0.1 * span)

@@ -33,10 +33,11 @@ import numpy as np
 
 from core.cartesian.check import VIOLATION_SLACK, finish
 from core.cartesian.partial import partial_warning
-from core.cartesian.rate.control import GOAL_FRACTION, RateRun
+from core.cartesian.rate.control import GOAL_FRACTION
 from core.cartesian.rate.obstacle import blocking_contact
 from core.cartesian.rate.qp import SINGULAR_REGION
 from core.cartesian.rate.smooth import smooth_motion, tick_velocity
+from core.cartesian.rate.ticks import RateRun
 from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import Infeasible
