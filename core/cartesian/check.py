@@ -54,7 +54,7 @@ def finish(
     ``min_singular_value`` set."""
     check_limits(task.robot, result.trajectory, s)
     deviation = measure(task, result.trajectory)
-    flip = check_labels(task, result.trajectory, s, deviation)
+    flip = check_labels(task, result.trajectory, s, deviation) if task.keep_configuration else None
     if flip is not None:
         if not task.allow_violations:
             raise flip

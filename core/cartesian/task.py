@@ -68,6 +68,10 @@ class CartesianTask:
         max_angular_jerk: Tool angular jerk limit [rad/s^3] of the s-curve (None: its default).
         clearance: The environment's distances (obstacles, self-collision), for the methods that
             avoid collisions (``bounded_deviation_nlp``, ``resolved_rate_dls``); None: no avoidance.
+        keep_configuration: The trajectory keeps the start's configuration label (default). False
+            lets the rate controllers pass a wrist singularity (the label changes, reported in
+            ``diagnostics["configuration_changes"]``); the other methods follow one IK branch
+            anyway.
     """
 
     robot: Kinematics
@@ -91,6 +95,7 @@ class CartesianTask:
     max_linear_jerk: float | None = None
     max_angular_jerk: float | None = None
     clearance: Clearance | None = None
+    keep_configuration: bool = True
 
     def line(self) -> Path:
         """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);

@@ -30,6 +30,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from scipy.interpolate import CubicHermiteSpline
 
 from core.cartesian.check import VIOLATION_SLACK, finish
 from core.cartesian.partial import partial_warning
@@ -41,8 +42,12 @@ from core.cartesian.rate.ticks import RateRun
 from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import Infeasible
+from core.kinematics import Kinematics
+from core.path import Path
 from core.trajectory import Trajectory, sample_times
 
+LABEL_CHECKS = 16
+"""Points per returned interval at which ``configuration_changes`` reads the label."""
 GOAL_CONFIGURATION_WARNING = 1e-3
 """[rad] End configuration farther than this from ``q_goal``: a warning."""
 _CHUNK = 20_000
@@ -81,11 +86,43 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
         strayed = _strayed(task, line, run)  # (the 200 rule's answer, naming the cause)
         if strayed is not None:
             raise strayed
-    result = replace(result, diagnostics=_diagnostics(task, run, method, result))
-    warnings = _warnings(task, run, method, result)
+    diagnostics = _diagnostics(task, run, method, result)
+    warnings = _warnings(task, run, method, replace(result, diagnostics=diagnostics))
+    if not task.keep_configuration:  # (with it, a change is 422 branch_flip in finish)
+        changes = configuration_changes(task.robot, line, result.trajectory)
+        diagnostics["configuration_changes"] = changes
+        warnings += [
+            f"the configuration changes from {c['from']} to {c['to']} at s={c['s']:.4f} "
+            "(keep_configuration is false)"
+            for c in changes
+        ]
+    result = replace(result, diagnostics=diagnostics)
     if detour is not None and run.failure is None:  # allow_violations: the detour is accepted
         warnings.append(f"the tool left the line to keep the clearance: {detour.failure.detail}")
     return replace(result, warnings=tuple(warnings))
+
+
+def configuration_changes(robot: Kinematics, line: Path, traj: Trajectory) -> list[dict[str, Any]]:
+    """Each change of configuration label along ``traj`` as ``{"s", "from", "to"}``: labels at
+    the returned points and ``LABEL_CHECKS`` points of the cubic between each two (Hermite from
+    the returned velocities: the returned motion), ``s`` the line parameter of the tool at the
+    first point with the new label."""
+    q, t = traj.positions, traj.times
+    if robot.configuration(q[0]) is None or len(t) < 2:
+        return []
+    spline = CubicHermiteSpline(t, q, traj.velocities, axis=0)
+    steps = np.arange(LABEL_CHECKS) / LABEL_CHECKS
+    dense_t = np.append((t[:-1, None] + np.diff(t)[:, None] * steps).ravel(), t[-1])
+    dense = spline(dense_t)
+    labels = robot.configurations(dense)
+    at = [i for i in range(1, len(labels)) if labels[i] != labels[i - 1]]
+    if not at:
+        return []
+    s = line.deviation(robot.fk_many(dense[at])).s
+    return [
+        {"s": float(x), "from": str(labels[i - 1]), "to": str(labels[i])}
+        for x, i in zip(s, at, strict=True)
+    ]
 
 
 def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.ndarray, int]:
