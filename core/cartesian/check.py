@@ -59,7 +59,9 @@ def finish(
         if not task.allow_violations:
             raise flip
         result = replace(result, warnings=(*result.warnings, f"{flip} (allow_violations)"))
-    sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
+    sv = result.singular_values  # (a method that computed them at the returned points)
+    if sv is None or len(sv) != len(result.trajectory.times):
+        sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
     return replace(
         result, deviation=deviation, singular_values=sv, min_singular_value=float(sv.min())
     )

@@ -49,7 +49,7 @@ from core.errors import (
     Unreachable,
 )
 from core.kinematics import task_rows
-from core.path.line import StraightLine
+from core.path import Path
 
 SINGULAR_VALUE_THRESHOLD = 1e-3
 """Smallest singular value of the task Jacobian [m/rad for the linear rows] below which a point is
@@ -77,7 +77,7 @@ _EXACT = 10.0 * IK_SOLVE_TOLERANCE
 TWO_PI = 2.0 * np.pi
 
 
-def check_grid(task: CartesianTask, line: StraightLine) -> np.ndarray:
+def check_grid(task: CartesianTask, line: Path) -> np.ndarray:
     """Equally spaced s of the walk: a step of ``STEP_PER_TOLERANCE`` tolerances of travel."""
     n = max(
         line.length / (STEP_PER_TOLERANCE * task.position_tolerance),
@@ -127,7 +127,7 @@ class Seed(NamedTuple):
 class Walker:
     """One walk's context: the robot, the line, the step checks and the IK call count."""
 
-    def __init__(self, task: CartesianTask, line: StraightLine, nominal_speed: float) -> None:
+    def __init__(self, task: CartesianTask, line: Path, nominal_speed: float) -> None:
         self.task, self.robot, self.line = task, task.robot, line
         self.floor = MIN_SPEED_FRACTION * nominal_speed if np.isfinite(nominal_speed) else 0.0
         self.lo, self.hi = self.robot.position_limits[:, 0], self.robot.position_limits[:, 1]
@@ -343,7 +343,7 @@ class Walker:
         return rates
 
 
-def walk_line(task: CartesianTask, line: StraightLine, grid: np.ndarray | None = None) -> LineWalk:
+def walk_line(task: CartesianTask, line: Path, grid: np.ndarray | None = None) -> LineWalk:
     """IK along ``line`` from ``task.q_start`` (see the module docstring); stops at the first failure.
 
     Args:

@@ -16,11 +16,12 @@ from core.cartesian.path_rates import path_rates
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
 from core.cartesian.walk import MAX_JOINT_STEP, SINGULAR_VALUE_THRESHOLD, LineWalk, check_grid
-from core.path.line import StraightLine
+from core.path import Path
 
 
-def batch_walk(task: CartesianTask, line: StraightLine) -> LineWalk | None:
-    """``walk_line``'s result on its default grid when the whole line passes (see the module
+def batch_walk(task: CartesianTask, line: Path, grid: np.ndarray | None = None) -> LineWalk | None:
+    """``walk_line``'s result on ``grid`` (increasing s from 0 to 1, at least as fine as the
+    default ``check_grid``, which is the default) when the whole line passes (see the module
     docstring), else None. Only for robots with a label and task space ``pose`` (the batched
     analytic IK); others get None at once."""
     robot = task.robot
@@ -28,7 +29,7 @@ def batch_walk(task: CartesianTask, line: StraightLine) -> LineWalk | None:
     label = robot.configuration(q_start)
     if label is None or robot.task_space != "pose":
         return None
-    grid = check_grid(task, line)
+    grid = check_grid(task, line) if grid is None else grid
     path = robot.ik_many(line.poses(grid[1:]), q_start, label)
     if not np.all(path.within_limits):
         return None

@@ -31,6 +31,7 @@ from core.cartesian.walk import (
     LineWalk,
     Seed,
     Walker,
+    check_grid,
     walk_line,
 )
 from core.cartesian.walk_batch import batch_walk
@@ -39,7 +40,7 @@ from core.errors import (
     Singularity,
 )
 from core.geometry import so3
-from core.path.line import StraightLine
+from core.path import Path
 from core.trajectory import DEFAULT_SAMPLE_PERIOD, MAX_POINTS
 
 _MAX_RETIMES = 4
@@ -55,9 +56,7 @@ BATCH_DAMPING = 1e-12
 """Damping of the batched Newton steps (regularization only: singular points go the one-point way)."""
 
 
-def solve_on_line(
-    task: CartesianTask, line: StraightLine, walk: LineWalk, s: np.ndarray
-) -> np.ndarray:
+def solve_on_line(task: CartesianTask, line: Path, walk: LineWalk, s: np.ndarray) -> np.ndarray:
     """Joint positions ``(N, dof)`` on the line at ``s`` (N,), on the walk's branch: a point of the
     walk is reused; any other is solved by IK seeded from the walk point before it (then after it).
     Raises the failure (with its s) of a point that cannot be solved on the branch."""
@@ -166,7 +165,7 @@ def _batch_chunk(
 def plan_sampled(task: CartesianTask) -> CartesianResult:
     """Plan ``task`` by sampled IK along the line (see the module docstring)."""
     line = validated_line(task)
-    walk = batch_walk(task, line) or walk_line(task, line)
+    walk = batch_walk(task, line, _returned_grid(task, line)) or walk_line(task, line)
     failure, attempts = walk.failure, 0
     while True:
         if failure is not None and (not task.allow_partial or walk.end <= MIN_STEP):
@@ -181,8 +180,18 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
             walk, failure = walk.before(err.s), err
 
 
+def _returned_grid(task: CartesianTask, line: Path) -> np.ndarray | None:
+    """With ``samples`` the returned points' s are known before the timing (equally spaced):
+    the batched walk solves them directly (and the timing reads its caps there) when they are at
+    least as dense as its own grid; else None (the walk's grid, then IK at the returned points)."""
+    if task.samples is None:
+        return None
+    grid = np.linspace(0.0, 1.0, int(task.samples))
+    return grid if len(grid) >= len(check_grid(task, line)) else None
+
+
 def _densified(
-    task: CartesianTask, line: StraightLine, walk: LineWalk, failure: PlanningError | None
+    task: CartesianTask, line: Path, walk: LineWalk, failure: PlanningError | None
 ) -> CartesianResult:
     """``_timed_result``; when the request left the sampling to the service (neither ``samples``
     nor ``sample_period``) and interpolation between the points strays over the tolerance, the
@@ -206,7 +215,7 @@ def _densified(
 
 
 def _timed_result(
-    task: CartesianTask, line: StraightLine, walk: LineWalk, failure: PlanningError | None
+    task: CartesianTask, line: Path, walk: LineWalk, failure: PlanningError | None
 ) -> CartesianResult:
     robot = task.robot
     grid_s, grid_rates = walk.s, walk.rates
@@ -219,7 +228,10 @@ def _timed_result(
         if len(todo):
             cache.update(zip(todo.tolist(), _solve_points(solver, walk, todo), strict=True))
         q = np.array([cache[x] for x in s.tolist()])
-        rates = path_rates(robot, line, q, deadline=task.deadline)
+        if np.array_equal(s, walk.s):  # the walk solved the returned points: its rates are theirs
+            rates = walk.rates
+        else:
+            rates = path_rates(robot, line, q, deadline=task.deadline)
         singular = rates.sigma < SINGULAR_VALUE_THRESHOLD
         if singular.any():
             i = int(np.argmax(singular))
@@ -238,6 +250,7 @@ def _timed_result(
             *(np.concatenate([a, b[over]])[order] for a, b in zip(grid_rates, rates, strict=True))
         )
     warnings = list(timing.warnings)
+    sigma: np.ndarray | None = rates.sigma  # (at the returned points)
     acc_ratio = traj.peak_acceleration / robot.acceleration_limits
     if task.duration is None and acc_ratio.max() > 1.0 + 1e-6:
         j = int(np.argmax(acc_ratio))
@@ -251,6 +264,7 @@ def _timed_result(
         gap = float(np.abs(traj.positions[-1] - task.q_goal).max())
         if gap <= GOAL_SNAP:
             traj.positions[-1] = task.q_goal
+            sigma = None  # (not at the snapped point: ``finish`` computes them)
         elif gap > GOAL_BRANCH_WARNING:
             warnings.append(
                 f"the line ends at the goal pose in another joint configuration than "
@@ -260,6 +274,7 @@ def _timed_result(
             )
     result = CartesianResult(
         trajectory=traj,
+        singular_values=sigma,
         fraction=walk.end,
         warnings=tuple(warnings),
         diagnostics={
