@@ -17,6 +17,7 @@ import numpy as np
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
 from core.cartesian.joint_limits import inside, over_speed
+from core.cartesian.measure import min_singular_values
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -264,7 +265,7 @@ def _timed_result(
         gap = float(np.abs(traj.positions[-1] - task.q_goal).max())
         if gap <= GOAL_SNAP:
             traj.positions[-1] = task.q_goal
-            sigma = None  # (not at the snapped point: ``finish`` computes them)
+            sigma = np.append(rates.sigma[:-1], min_singular_values(robot, task.q_goal[None]))
         elif gap > GOAL_BRANCH_WARNING:
             warnings.append(
                 f"the line ends at the goal pose in another joint configuration than "
