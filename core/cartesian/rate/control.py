@@ -90,10 +90,11 @@ SPEED_CAP_SHARE = 1.0 - 1e-4
 """The ticks keep the tool's speed limits with this share: the returned velocities blend the
 rates of neighbouring ticks (``core.cartesian.rate.smooth``) under a Jacobian that turns between
 them, which measured up to 3e-6 of the limit over it at 10 ms sampling."""
-STALL_TICKS = 100
-"""A run that ends short of the goal is stuck at a singularity when the smallest singular value
-fell below the singular region within this many ticks of its end (the DLS's acceleration-bounded
-rates hover about a singular configuration rather than settle in it)."""
+STALL_TIME = 0.5
+"""[s] A run that ends short of the goal is stuck at a singularity when the smallest singular value
+fell below the singular region within this time of its end: the DLS's acceleration-bounded rates
+hover about a singular configuration (measured: the UR5 3 m out of reach swings with a period of
+about 0.5 s, sigma between 0.01 and 0.12) rather than settle in it."""
 _CHECK_EVERY = 256
 """Ticks between deadline checks."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
@@ -148,7 +149,7 @@ def _lagged(task: CartesianTask, run: RateRun) -> bool:
     strayed = np.flatnonzero(off[:-1])
     if not strayed.size:
         return False
-    first = max(0, int(strayed[0]) - STALL_TICKS)
+    first = max(0, int(strayed[0]) - math.ceil(STALL_TIME / run.dt))
     active = run.active[first : int(strayed[0]) + 1].any()
     return bool(active and run.sigma[first:].min() >= SINGULAR_REGION)
 
@@ -286,8 +287,11 @@ def _loop(
             if isinstance(controller, DlsTick):  # (its joints stop short of a limit by a margin)
                 held = controller.held_box()
                 first = first_limit(positions[1 : k + 1], held[0], held[1], log.s)
-            sigma = float(log.sigma[max(0, k - STALL_TICKS) : k].min())  # (the DLS may hover)
-            failure = stuck(robot, line, q, sigma, first, at_end, s, dt * k, held)
+            stall = max(0, k - math.ceil(STALL_TIME / dt))
+            sigma = float(log.sigma[stall:k].min())  # (the DLS may hover)
+            failure = stuck(
+                robot, line, q, sigma, first, at_end, s, dt * k, held, positions[: k + 1]
+            )
             return k + 1, failure
         # (zip without strict=True in the controllers, ~0.8 us less: the lengths are equal)
         e_task = e if all_rows else [e[i] for i in row_list]
