@@ -102,8 +102,23 @@ RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
 
 def nominal_timing(task: CartesianTask, line: Path) -> Profile:
     """s(t): quintic for ``task.duration``, else the speed-limited profile of ``task.speeds()``
-    (the S-curve for ``speed_profile="s_curve"``: ``core.cartesian.timing.nominal_profile``)."""
-    return nominal_profile(task, line)
+    times ``SPEED_CAP_SHARE`` (the S-curve for ``speed_profile="s_curve"``:
+    ``core.cartesian.timing.nominal_profile``)."""
+    return nominal_profile(_shared_speeds(task), line)
+
+
+def _shared_speeds(task: CartesianTask) -> CartesianTask:
+    """``task`` with its tool speed limits times ``SPEED_CAP_SHARE`` (none with a duration): the
+    clock the ticks follow stays under the cap they keep, so the cap never cuts the feedforward (a
+    cut at cruise made the DLS lag, then catch up: 5 % over the s-curve's path jerk)."""
+    if task.duration is not None:
+        return task
+    linear, angular = task.speeds()
+    return replace(
+        task,
+        max_linear_speed=None if linear is None else linear * SPEED_CAP_SHARE,
+        max_angular_speed=None if angular is None else angular * SPEED_CAP_SHARE,
+    )
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
@@ -129,7 +144,7 @@ def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = No
             return run
         path = run
     if path.failure is None:
-        slower = joint_timing(task, validated_line(task), path.s, path.positions)
+        slower = joint_timing(_shared_speeds(task), validated_line(task), path.s, path.positions)
         if slower is not None:
             run = _simulate(task, method, extra_rows, slower.profile)
             run = replace(run, timing_warnings=slower.warnings)
