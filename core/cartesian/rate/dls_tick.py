@@ -31,7 +31,6 @@ from core.cartesian.rate.qp import (
     REDUNDANCY_DAMPING,
     SINGULAR_REGION,
     RateLimits,
-    braking_bounds,
     build_dls_qp,
     damping,
     solve_dls_qp,
@@ -52,6 +51,8 @@ from core.cartesian.task import CartesianTask
 from core.errors import PlanningError
 from core.trajectory import DEFAULT_SAMPLE_PERIOD
 
+LOOK_AHEAD = 2.0 ** np.arange(11)
+"""Clear spans [ticks] ``_look_ahead`` tries (1 to 1024)."""
 RECHECK = 16
 """Ticks between looks for the clear span (``clear_ticks``) while a joint is near a position limit."""
 
@@ -103,10 +104,19 @@ class DlsTick:
         if limits.acceleration is None:
             raise ValueError("the DLS tick needs acceleration limits")
         self.margin, self.rest, self.boxed = margin, np.zeros(dof), box_acceleration
-        self.step_a = limits.acceleration * dt
+        step_a = limits.acceleration * dt
+        self.steps = np.stack([-step_a, step_a])  # the acceleration box about the previous rates
+        # braking_bounds in place: room [q - lo', hi' - q] = sign q + edge, then
+        # sqrt(2 b room + (b dt)^2) - b dt, signed back (-, +)
+        b = BRAKING_SHARE * limits.acceleration
+        self.sign, self.edge = (
+            np.array([[1.0], [-1.0]]),
+            np.stack([-(self.lo_q + margin), self.hi_q - margin]),
+        )
+        self.two_b, self.bdt = 2.0 * b, b * dt
+        self.bdt2, self.room = self.bdt * self.bdt, np.empty((2, dof))
         # within a stopping distance (and a tick at full speed) of these, braking binds
-        stop = self.vmax * self.vmax / (2.0 * BRAKING_SHARE * limits.acceleration)
-        stop += self.vmax * dt
+        stop = self.vmax * self.vmax / (2.0 * b) + self.vmax * dt
         self.reach = np.stack([self.lo_q + margin + stop, self.hi_q - margin - stop])
         log.bounds[:, 0], log.bounds[:, 1] = -self.vmax, self.vmax  # (unboxed, clear ticks)
         self.shift_lam = 0.0
@@ -200,18 +210,24 @@ class DlsTick:
         log, B = self.log, self.log.bounds[k]
         clear = k < self.clear_until
         if self.boxed:
-            previous = log.rates[k - 1] if k else self.rest
-            np.subtract(previous, self.step_a, out=B[0])
-            np.maximum(B[0], self.low_v, out=B[0])
-            np.add(previous, self.step_a, out=B[1])
-            np.minimum(B[1], self.vmax, out=B[1])
+            np.add(log.rates[k - 1] if k else self.rest, self.steps, out=B)
+            np.maximum(B, self.low_v, out=B)
+            np.minimum(B, self.vmax, out=B)
         elif not clear:
             B[0], B[1] = self.low_v, self.vmax
         if not clear:
-            self._look_ahead(k, (self.reach - q) / self.dt)
-            brake_lo, brake_hi = braking_bounds(q, self.limits, self.dt, self.margin)
-            np.maximum(B[0], brake_lo, out=B[0])
-            np.minimum(B[1], brake_hi, out=B[1])
+            if k >= self.recheck:
+                self._look_ahead(k, q)
+            room = self.room  # braking_bounds(q, limits, dt, margin), in place
+            np.multiply(self.sign, q, out=room)
+            np.add(room, self.edge, out=room)
+            np.maximum(room, 0.0, out=room)
+            np.multiply(room, self.two_b, out=room)
+            np.add(room, self.bdt2, out=room)
+            np.sqrt(room, out=room)
+            np.subtract(room, self.bdt, out=room)  # (-brake_lo, brake_hi)
+            np.maximum(B[0], np.negative(room[0], out=room[0]), out=B[0])
+            np.minimum(B[1], room[1], out=B[1])
             np.minimum(B[0], B[1], out=B[0])  # (never empty but by rounding: upper wins)
         return B, clear
 
@@ -221,12 +237,26 @@ class DlsTick:
         slack = 1e-9
         return np.stack([self.lo_q + self.margin + slack, self.hi_q - self.margin - slack])
 
-    def _look_ahead(self, k: int, raw: np.ndarray) -> None:
-        """Every ``RECHECK`` ticks near a limit: the ticks from ``k`` on that no position bound can
-        bind (``clear_ticks`` of ``raw``: ``(reach - q) / dt``, the position terms)."""
-        if k >= self.recheck:
-            self.clear_until = k + 1 + clear_ticks(raw, self.vmax, len(self.log.s))
-            self.recheck = self.clear_until if self.clear_until > k + 1 else k + RECHECK
+    def _look_ahead(self, k: int, q: np.ndarray) -> None:
+        """Every ``RECHECK`` ticks near a limit: the ticks after ``k`` whose braking bound cannot
+        bind (``clear_until``). Boxed, a joint's rate after ``m`` more ticks is at most ``v_m =
+        min(v_max, |qd_prev| + (m + 1) a_max dt)``: while its room to the limit (less the margin)
+        covers ``m`` ticks at ``v_m`` and the braking distance from ``v_m``, ``v_m dt + v_m^2 /
+        (2 b)``, its braking bound stays above any rate it may have (and the next positions inside
+        the limits): the largest such ``m`` among ``LOOK_AHEAD`` for every joint. Unboxed, rates
+        may reach ``v_max`` at once (``clear_ticks`` on the full stopping distance)."""
+        n = len(self.log.s)
+        if not self.boxed:
+            span = clear_ticks((self.reach - q) / self.dt, self.vmax, n)
+        else:
+            speed = np.abs(self.log.rates[k - 1]) if k else self.rest
+            room = np.minimum(q + self.edge[0], self.edge[1] - q)  # (edge: -lo', hi')
+            v = np.minimum(self.vmax, speed + (LOOK_AHEAD[:, None] + 1.0) * self.steps[1])
+            need = (LOOK_AHEAD[:, None] + 1.0) * self.dt * v + v * v / self.two_b
+            fits = np.flatnonzero((need <= room).all(axis=1))
+            span = int(LOOK_AHEAD[fits[-1]]) if fits.size else 0
+        self.clear_until = k + 1 + min(span, n)
+        self.recheck = self.clear_until if self.clear_until > k + 1 else k + RECHECK
 
 
 def _within(
