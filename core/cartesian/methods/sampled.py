@@ -26,6 +26,7 @@ from core.cartesian.validate import validated_line
 from core.cartesian.walk import (
     GOAL_BRANCH_WARNING,
     GOAL_SNAP,
+    MAX_INTERVALS,
     MIN_STEP,
     SINGULAR_VALUE_THRESHOLD,
     TWO_PI,
@@ -184,9 +185,10 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
 def _returned_grid(task: CartesianTask, line: Path) -> np.ndarray | None:
     """With ``samples`` the returned points' s are known before the timing (equally spaced):
     the batched walk solves them directly (and the timing reads its caps there) when they are at
-    least as dense as its own grid; else None (the walk's grid, then IK at the returned points)."""
-    if task.samples is None:
-        return None
+    least as dense as its own grid and no more than its largest (``MAX_INTERVALS``); else None
+    (the walk's grid, then IK at the returned points, under the deadline)."""
+    if task.samples is None or task.samples > MAX_INTERVALS + 1:
+        return None  # (the walk's own grid is bounded: IK of one batch, deadline checks between)
     grid = np.linspace(0.0, 1.0, int(task.samples))
     return grid if len(grid) >= len(check_grid(task, line)) else None
 

@@ -44,6 +44,7 @@ from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import Infeasible
 from core.kinematics import Kinematics
 from core.path import Path
+from core.path.line import pose_error
 from core.trajectory import Trajectory, sample_times
 
 LABEL_CHECKS = 16
@@ -218,6 +219,20 @@ def _sample(
 
     times = sample_times(duration, task.sample_period, task.samples)
     positions, velocities, accelerations = smooth_motion(times, velocity, run.positions[0])
+    # where the smoothing leaves the tool off the ticks' end by more than the run's own end test
+    # (coarse returned points), it ends where the ticks' velocity takes the arm (braked or not)
+    end = run.positions[0] + np.trapezoid(w, dx=dt, axis=0)
+    off_p, off_o = pose_error(task.robot.fk(positions[-1]), task.robot.fk(end))
+    if off_p > GOAL_FRACTION * task.position_tolerance or (
+        off_o > GOAL_FRACTION * task.orientation_tolerance
+    ):
+        limits = (
+            np.asarray(task.robot.velocity_limits),
+            np.asarray(task.robot.acceleration_limits),
+        )
+        positions, velocities, accelerations = smooth_motion(
+            times, velocity, run.positions[0], end, limits
+        )
     velocities[0] = velocities[-1] = 0.0  # (rest: exactly, not to rounding)
     s_points = np.interp(clock(times)[0] - 0.5 * dt, np.arange(len(run.s)) * dt, run.s)
     return Trajectory(times, positions, velocities, accelerations, names), s_points

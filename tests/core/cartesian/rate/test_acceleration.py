@@ -169,3 +169,30 @@ def test_braking_bound_never_lets_a_joint_past_its_limit() -> None:
     )
     b, g = BRAKING_SHARE * 10.0, 0.1  # qd dt + qd^2 / (2 b) = g
     assert brake_hi[0] * 1e-3 + brake_hi[0] ** 2 / (2 * b) == pytest.approx(g, rel=1e-12)
+
+
+def test_smooth_motion_ends_where_asked_within_the_same_bounds() -> None:
+    """A coarse grid (the sweep's 0.197 s sample period) leaves the smoothed motion off the
+    controller's end by about h^2/8 of its change of acceleration; with ``q_end`` it ends there,
+    rest at both ends kept, every velocity and acceleration within the limits given."""
+    nodes = np.linspace(0.0, 1.0, 1001)
+    w = np.sin(np.pi * nodes)[:, None] * np.array([1.0, -0.5])  # rest to rest
+
+    def velocity(t: np.ndarray) -> np.ndarray:
+        return np.stack([np.interp(t, nodes, w[:, j]) for j in range(2)], axis=1)
+
+    end = np.trapezoid(w, nodes, axis=0)
+    times = np.append(np.arange(0.0, 1.0, 0.197), 1.0)
+    q = smooth_motion(times, velocity, np.zeros(2))[0]
+    assert np.abs(q[-1] - end).max() > 1e-4  # the smoothing's error at the end
+    limits = (np.array([1.1, 0.6]), np.array([4.0, 2.0]))
+    q2, v2, a2 = smooth_motion(times, velocity, np.zeros(2), end, limits)
+    np.testing.assert_allclose(q2[-1], end, rtol=0, atol=1e-15)
+    assert np.abs(v2[[0, -1]]).max() < 1e-15
+    assert np.all(np.abs(v2) <= limits[0]) and np.all(np.abs(a2) <= limits[1])
+    # within limits it cannot meet, a joint keeps the smoothing's error
+    tight = (np.array([1.0, 0.6]), np.array([4.0, 2.0]))
+    q3 = smooth_motion(times, velocity, np.zeros(2), end, tight)[0]
+    assert abs(q3[-1, 0] - end[0]) > 1e-4 and q3[-1, 1] == end[1]
+    h = np.diff(times)[:, None]
+    np.testing.assert_allclose(v2[1:] - v2[:-1], h * (a2[:-1] + a2[1:]) / 2, atol=1e-12)
