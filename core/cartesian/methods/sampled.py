@@ -217,6 +217,26 @@ def _densified(
     return result
 
 
+def _point_rates(
+    task: CartesianTask, line: Path, walk: LineWalk, s: np.ndarray, q: np.ndarray
+) -> PathRates:
+    """The path rates at the returned points ``q`` (at ``s``): the walk's own when it solved
+    exactly those points; ``Singularity`` where one is singular."""
+    if np.array_equal(s, walk.s):
+        rates = walk.rates
+    else:
+        rates = path_rates(task.robot, line, q, deadline=task.deadline)
+    singular = rates.sigma < SINGULAR_VALUE_THRESHOLD
+    if singular.any():
+        i = int(np.argmax(singular))
+        raise Singularity(
+            f"the Jacobian is singular at s={s[i]:.4f} between walked points (smallest singular "
+            f"value {rates.sigma[i]:.3g})",
+            s=float(s[i]),
+        )
+    return rates
+
+
 def _timed_result(
     task: CartesianTask, line: Path, walk: LineWalk, failure: PlanningError | None
 ) -> CartesianResult:
@@ -231,18 +251,7 @@ def _timed_result(
         if len(todo):
             cache.update(zip(todo.tolist(), _solve_points(solver, walk, todo), strict=True))
         q = np.array([cache[x] for x in s.tolist()])
-        if np.array_equal(s, walk.s):  # the walk solved the returned points: its rates are theirs
-            rates = walk.rates
-        else:
-            rates = path_rates(robot, line, q, deadline=task.deadline)
-        singular = rates.sigma < SINGULAR_VALUE_THRESHOLD
-        if singular.any():
-            i = int(np.argmax(singular))
-            raise Singularity(
-                f"the Jacobian is singular at s={s[i]:.4f} between walked points (smallest singular "
-                f"value {rates.sigma[i]:.3g})",
-                s=float(s[i]),
-            )
+        rates = _point_rates(task, line, walk, s, q)
         traj = timed_trajectory(times, timing, q, rates.dq_ds, rates.d2q_ds2, robot.joint_names)
         over = over_speed(traj.velocities, robot.velocity_limits).any(axis=1)
         if not over.any():
