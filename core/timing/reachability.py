@@ -184,6 +184,8 @@ class Reachability:
         """New ``rows`` (the whole grid) that differ from the last ones on intervals ``changed``."""
         if changed.size == 0:
             return
+        if rows.alpha.shape[1] > self.bounds.p_lo.shape[1]:
+            self._widen(rows.alpha.shape[1] - self.bounds.p_lo.shape[1])
         sub = IntervalRows(
             *(
                 getattr(rows, f)[changed]
@@ -195,6 +197,20 @@ class Reachability:
             getattr(self.bounds, name)[changed] = getattr(fresh, name)
         self._prepare(np.unique(np.concatenate([changed, changed - 1]).clip(0)))
         self._changed = np.unique(np.concatenate([self._changed, changed, (changed - 1).clip(0)]))
+
+    def _widen(self, extra: int) -> None:
+        """Room for ``extra`` more rows per interval (rows added by a caller), none binding yet."""
+        n = len(self.delta)
+
+        def pad(a: np.ndarray, value: float) -> np.ndarray:
+            return np.concatenate([a, np.full((n, extra), value)], axis=1)
+
+        b = self.bounds
+        inf = np.inf
+        self.bounds = Bounds(pad(b.p_lo, -inf), pad(b.q_lo, 0.0), pad(b.p_up, inf),
+                             pad(b.q_up, 0.0), b.x_lo, b.x_hi)  # fmt: skip
+        self._up_l, self._up_c = pad(self._up_l, 0.0), pad(self._up_c, inf)
+        self._lo_l, self._lo_c = pad(self._lo_l, 0.0), pad(self._lo_c, -inf)
 
     def _prepare(self, idx: np.ndarray) -> None:
         b, n = self.bounds, len(self.delta)
