@@ -27,6 +27,9 @@ DENSE = 4
 """Samples at fractions 0, 1/4, ..., 1 of every checked piece."""
 NEAR = 1e-7
 """Sampled peaks within this of their bound are found exactly."""
+PARTIAL = 0.5
+"""Only the intervals whose speeds moved are checked again when they are fewer than this share
+(copying their rows costs more than it saves beyond it)."""
 SCREEN = 0.88
 """Rows whose samples all stay below this are below 0.99 everywhere on the piece: the parabola
 through three non-negative samples peaks at most 1/8 of the middle one above it."""
@@ -87,16 +90,19 @@ class Check:
         rows = limits.rows(*sample_path(path, at))
         p = len(parent)
         join_at = np.cumsum(is_join) - 1  # index among the joins of a join cut
+        first, last = np.flatnonzero(is_join[:-1]), np.flatnonzero(is_join[1:])
+        constant = bool(np.any(rows.C) or np.any(start.C) or np.any(end.C))
         out = []
-        for name in ("A", "B", "C"):
+        for name in ("A", "B", "C") if constant else ("A", "B"):
             every = getattr(rows, name)
             block = np.empty((p, DENSE + 1, m))
             block[:, 1:-1] = every[joins.size :].reshape(p, DENSE - 1, m)
-            first, last = is_join[:-1], is_join[1:]
-            block[:, 0] = np.where(first[:, None], every[join_at[:-1]], getattr(start, name)[parent])
-            block[:, -1] = np.where(last[:, None], every[join_at[1:]], getattr(end, name)[parent])
+            block[:, 0] = getattr(start, name)[parent]
+            block[:, -1] = getattr(end, name)[parent]
+            block[first, 0] = every[join_at[first]]
+            block[last, -1] = every[join_at[last + 1]]
             out.append(block)
-        c = out[2] if np.any(out[2]) else None
+        c = out[2] if constant else None
         return cls(parent, lo, hi, out[0], out[1], c)
 
     def subset(self, keep: np.ndarray) -> Check:
@@ -120,7 +126,7 @@ class Check:
         if before is not None:
             x_old, old = before
             moved = (x[:-1] != x_old[:-1]) | (x[1:] != x_old[1:])
-            if not moved.all():
+            if moved.mean() < PARTIAL:
                 value, at = old.value.copy(), old.at.copy()
                 keep = moved[self.parent]
                 if keep.any():
@@ -141,21 +147,27 @@ class Check:
         total = self.A * uk[:, None, None] + self.B * xs[:, :, None]
         if self.C is not None:
             total += self.C
-        ratios = np.abs(total, out=total) / h
-        top = ratios.argmax(axis=1)
-        peak = np.take_along_axis(ratios, top[:, None], axis=1)[:, 0]
-        where = top / DENSE
+        ratios = np.abs(total, out=total)
+        ratios /= h
+        peak = ratios[:, 0].copy()
+        for j in range(1, DENSE + 1):
+            np.maximum(peak, ratios[:, j], out=peak)
+        where = np.zeros_like(peak)
         i, r = np.nonzero(peak > SCREEN)
         if i.size:
-            t = top[i, r]
+            samples = ratios[i, :, r]  # (C, DENSE + 1)
+            t = samples.argmax(axis=1)
             c = np.clip(t, 1, DENSE - 1)
-            v0, v1, v2 = ratios[i, c - 1, r], ratios[i, c, r], ratios[i, c + 1, r]
+            pick = np.arange(len(i))
+            v0, v1, v2 = samples[pick, c - 1], samples[pick, c], samples[pick, c + 1]
             est, w = parabola_peak(v0, v1, v2, peak[i, r], t, DENSE + 1)
             near = (est > 1.0 - NEAR) & (w > 0.0) & (w < 1.0)
             if near.any():
                 est[near], w[near] = self._refine(path, limits, s, x, h, i[near], r[near], w[near])
             peak[i, r], where[i, r] = est, w
-        return self._per_interval(len(d), peak, self.lo[:, None] + (self.hi - self.lo)[:, None] * where)
+        return self._per_interval(
+            len(d), peak, self.lo[:, None] + (self.hi - self.lo)[:, None] * where
+        )
 
     def _refine(
         self, path: JointPath, limits: PathLimits, s: np.ndarray, x: np.ndarray, h: np.ndarray,
