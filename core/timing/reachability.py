@@ -84,8 +84,8 @@ def u_bounds(rows: IntervalRows, x_hi: np.ndarray | None = None) -> Bounds:
             bpos, lo / np.where(bpos, b, 1.0), np.where(bneg, up / np.where(bneg, b, 1.0), 0.0)
         )
     broken = (~has_u & (b == 0) & ((lo > 0) | (up < 0))).any(axis=1)
-    x_top = np.minimum(np.nan_to_num(cap, nan=np.inf).min(axis=1), X_CAP)
-    x_lo = np.maximum(np.nan_to_num(floor, nan=0.0).max(axis=1), 0.0)
+    x_top = np.fmin(np.fmin.reduce(cap, axis=1), X_CAP)  # fmin and fmax pass NaN over
+    x_lo = np.fmax(np.fmax.reduce(floor, axis=1), 0.0)
     x_top = np.where(rows.stops, np.minimum(x_top, 0.0), x_top)
     x_top = np.where(broken, -1.0, x_top)
     if x_hi is not None:
@@ -147,7 +147,7 @@ def _keep(
         i0, i1 = sb.argmin(axis=1), end.argmin(axis=1)
         a0, b0, a1, b1 = sa[rows, i0], sb[rows, i0], sa[rows, i1], sb[rows, i1]
         cross = np.where(a0 != a1, (b1 - b0) / np.where(a0 != a1, a0 - a1, 1.0), 0.0)
-        xc = np.clip(np.nan_to_num(cross, nan=0.0), 0.0, top)
+        xc = np.clip(np.where(np.isnan(cross), 0.0, cross), 0.0, top)
         env = np.minimum(a0 * xc + b0, a1 * xc + b1)
         below = sa * xc[:, None] + sb < env[:, None] - 1e-12 * np.abs(env[:, None])
     keep = below
@@ -200,7 +200,7 @@ class Reachability:
         fresh = u_bounds(sub, self.bounds.x_hi[changed])  # rows were only added
         for name in Bounds.__dataclass_fields__:
             getattr(self.bounds, name)[changed] = getattr(fresh, name)
-        self._prepare(np.unique(np.concatenate([changed, changed - 1]).clip(0)))
+        self._prepare(changed)  # the lines kept before them still hold a superset
         self._changed = np.unique(np.concatenate([self._changed, changed, (changed - 1).clip(0)]))
 
     def _widen(self, extra: int) -> None:
@@ -239,10 +239,12 @@ class Reachability:
                 minus = -np.ones(int(some.sum()))
                 self._store("lo_h", idx[some], _keep(a, c, nxt[some], minus))
             # where x_i+1's set does not start at 0 (rare) these rows bound x_i too
-            self._up_l[idx] = np.where(s2 < -flat, w / np.where(s2 < -flat, s2, 1.0), 0.0)
-            self._up_c[idx] = np.where(s2 < -flat, -p_up / np.where(s2 < -flat, s2, 1.0), np.inf)
-            self._lo_l[idx] = np.where(s2 > flat, w / np.where(s2 > flat, s2, 1.0), 0.0)
-            self._lo_c[idx] = np.where(s2 > flat, -p_up / np.where(s2 > flat, s2, 1.0), -np.inf)
+            neg, pos = s2 < -flat, s2 > flat
+            inv = 1.0 / np.where(neg | pos, s2, 1.0)
+            self._up_l[idx] = np.where(neg, w * inv, 0.0)
+            self._up_c[idx] = np.where(neg, -p_up * inv, np.inf)
+            self._lo_l[idx] = np.where(pos, w * inv, 0.0)
+            self._lo_c[idx] = np.where(pos, -p_up * inv, -np.inf)
         # one pass for the three usual families: the lowest up_h and up_u, the highest lo_u
         k = len(idx)
         sign = np.concatenate([np.ones(2 * k), -np.ones(k)])
@@ -258,10 +260,16 @@ class Reachability:
         # with x_i+1's set starting at 0 (the usual case) those rows are constants
         top0 = np.minimum(b.x_hi[idx], self._up_c[idx].min(axis=1)).tolist()
         bottom0 = np.maximum(b.x_lo[idx], self._lo_c[idx].max(axis=1)).tolist()
+        if len(idx) == n:
+            self._top0, self._bottom0 = top0, bottom0
+            return
         for i, t, lo_ in zip(idx.tolist(), top0, bottom0, strict=True):
             self._top0[i], self._bottom0[i] = t, lo_
 
     def _store(self, name: str, idx: np.ndarray, lists: list[list[tuple[float, float]]]) -> None:
+        if len(idx) == len(self.delta):  # every interval, in order
+            self.lines[name] = lists
+            return
         target = self.lines[name]
         for i, item in zip(idx.tolist(), lists, strict=True):
             target[i] = item
