@@ -18,10 +18,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.timing.interval_peaks import parabola_peak, refine_peaks_at
+from core.timing.interval_peaks import is_parabola, parabola_peak, refine_peaks_at
 from core.timing.joint_path import JoinedPath, JointPath
 from core.timing.path_constraints import PathLimits, Rows
-from core.timing.path_grid import sample_path
+from core.timing.path_grid import NUDGE, sample_path
 
 DENSE = 4
 """Samples at fractions 0, 1/4, ..., 1 of every checked piece."""
@@ -161,7 +161,7 @@ class Check:
             pick = np.arange(len(i))
             v0, v1, v2 = samples[pick, c - 1], samples[pick, c], samples[pick, c + 1]
             est, w = parabola_peak(v0, v1, v2, peak[i, r], t, DENSE + 1)
-            near = (est > 1.0 - NEAR) & (w > 0.0) & (w < 1.0)
+            near = (est > 1.0 - NEAR) & (w > 0.0) & (w < 1.0) & ~is_parabola(samples, c)
             if near.any():
                 est[near], w[near] = self._refine(path, limits, s, x, h, i[near], r[near], w[near])
             peak[i, r], where[i, r] = est, w
@@ -181,6 +181,7 @@ class Check:
         def evaluate(c: np.ndarray, frac: np.ndarray, row: np.ndarray) -> np.ndarray:
             j = k[c]
             g = self.lo[c] + (self.hi[c] - self.lo[c]) * frac  # fraction of the grid interval
+            g = np.clip(g, NUDGE, 1.0 - NUDGE)  # a grid point may be a breakpoint: stay inside
             rows = limits.rows(*sample_path(path, s[j] + g * d[j]))
             pick = np.arange(len(c))
             v = rows.A[pick, row] * u[j] + rows.B[pick, row] * (x[j] + 2.0 * g * d[j] * u[j])

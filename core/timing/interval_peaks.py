@@ -17,8 +17,11 @@ import numpy as np
 
 REFINE_STEPS = 8
 """Parabolic (or golden-section) steps of ``refine_peaks``."""
-GAIN = 1e-14
-"""``refine_peaks`` stops once no bracket's parabola rises this much above its best value."""
+MIN_STEP = 1e-9
+"""Parabolic steps closer than this share of the bracket to its middle point are golden ones."""
+QUADRATIC = 1e-12
+"""Samples that a parabola through three of them predicts at a fourth to this (relative) are
+taken as samples of a parabola: its vertex is the peak, nothing to refine."""
 _GOLD = 0.3819660112501051
 
 
@@ -49,6 +52,22 @@ def parabola_peak(
     return np.where(better, vertex, best), where
 
 
+def is_parabola(samples: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Whether the parabola through ``samples`` ``(C, K)`` (evenly spaced, K >= 4) at
+    ``centre - 1, centre, centre + 1`` ``(C,)`` also passes through a fourth of them (to
+    ``QUADRATIC``): then its vertex is exact (a cubic spline's joint acceleration under a
+    constant s'')."""
+    k = samples.shape[1]
+    pick = np.arange(len(centre))
+    far = np.where(centre + 2 <= k - 1, centre + 2, centre - 2)
+    v0, v1, v2 = samples[pick, centre - 1], samples[pick, centre], samples[pick, centre + 1]
+    t = (far - centre).astype(float)  # +-2: the parabola's value there
+    predicted = v1 + 0.5 * t * (v2 - v0) + 0.5 * t * t * (v0 - 2.0 * v1 + v2)
+    actual = samples[pick, far]
+    scale = np.abs(v0) + np.abs(v1) + np.abs(v2) + np.abs(actual)
+    return np.abs(actual - predicted) <= QUADRATIC * scale
+
+
 def refine_peaks(
     evaluate: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
     interval: np.ndarray,
@@ -70,9 +89,7 @@ def refine_peaks_at(
     fraction: np.ndarray,
     samples: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``refine_peaks`` and the fraction where each peak is. Stops early once no parabola
-    through the bracket predicts a higher value than the best one by more than ``GAIN``
-    (after an exactly quadratic row's first step)."""
+    """``refine_peaks`` and the fraction where each peak is."""
     h = 1.0 / (samples - 1)
     lo = np.clip(fraction - h, 0.0, 1.0)
     hi = np.clip(fraction + h, 0.0, 1.0)
@@ -85,16 +102,13 @@ def refine_peaks_at(
         a, b, c = mid - lo, mid - hi, f_mid
         num = a * a * (c - f_hi) - b * b * (c - f_lo)
         den = a * (c - f_hi) - b * (c - f_lo)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):
             x = mid - 0.5 * num / den
-            # the parabola's second derivative, and its value at its vertex over f_mid
-            curve = 2.0 * ((c - f_hi) / b - (c - f_lo) / a) / (a - b)
-            gain = -0.5 * curve * (x - mid) ** 2
-        if np.all((curve < 0.0) & (gain <= GAIN) & (f_mid >= best)):
-            break  # every parabola peaks at its middle point: nothing higher to find
         wide = np.where(hi - mid > mid - lo, hi, lo)
         golden = mid + _GOLD * (wide - mid)
-        ok = np.isfinite(x) & (x > lo) & (x < hi) & (np.abs(x - mid) > 1e-12)
+        # a step too close to the middle point tells nothing (an equal value would move the
+        # bracket off the peak): a golden step instead
+        ok = np.isfinite(x) & (x > lo) & (x < hi) & (np.abs(x - mid) > MIN_STEP * (hi - lo))
         x = np.where(ok, x, golden)
         fx = evaluate(interval, x, row)
         arg = np.where(fx > best, x, arg)

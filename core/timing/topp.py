@@ -30,7 +30,7 @@ from core.errors import Infeasible
 from core.timing.dense_check import DENSE, Check, Peaks
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import PathLimits, Rows
-from core.timing.path_grid import PathSamples, one_sided, path_grid, sample_path, stops
+from core.timing.path_grid import NUDGE, PathSamples, one_sided, path_grid, sample_path, stops
 from core.timing.reachability import IntervalRows, Reachability
 from core.timing.speed_limited import GridTiming
 from core.trajectory import default_joint_names
@@ -47,8 +47,6 @@ ROUNDS = 12
 SETTLE = 4
 """Rounds kept for the slow-down: from round ``ROUNDS - SETTLE`` on it finishes whatever the
 excess (slow-downs under effort limits, whose gravity part does not scale, may take two)."""
-EDGE = 1e-9
-"""A cut at a peak sits at least this fraction of its interval inside it."""
 
 
 @dataclass(frozen=True)
@@ -199,7 +197,7 @@ def _at_peaks(
     """The interval fractions (a hair inside the interval) and A, B, C of the rows ``over`` =
     (interval, row) at their peaks ``at``, each ``(C,)``."""
     i, r = over
-    g = np.clip(at, EDGE, 1.0 - EDGE)
+    g = np.clip(at, NUDGE, 1.0 - NUDGE)
     rows = limits.rows(*sample_path(path, s[i] + g * (s[i + 1] - s[i])))
     pick = np.arange(len(i))
     return g, rows.A[pick, r], rows.B[pick, r], rows.C[pick, r]
