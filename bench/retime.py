@@ -1,6 +1,6 @@
 """R1: retiming a fixed geometric joint path at the optimum, ours against toppra on the same path.
 
-Three paths, each timed under joint velocity and acceleration limits by ours
+Five paths, each timed under joint velocity and acceleration limits by ours
 (``core.timing.topp.time_optimal``) and by toppra 0.6.10 (``TOPPRA``, its default grid, the
 constant-acceleration parametrizer) on the same q(s) (toppra's own ``SplineInterpolator`` for the
 splines, which is the same cubic; our blended path handed to it through its geometric-path
@@ -11,7 +11,10 @@ interface):
 - (b) the 10-LIN UR5 program's joint path (``bench/data/ten_lin_ur5_path.json``: 840 points of the
   program's answer), ``spline``, the UR5's limits;
 - (c) a collision-free Panda path (``bench/data/collision_free_panda_path.json``: MotionBenchMaker
-  cage 0001, RRT-Connect + shortcuts), ``blended`` with 0.05 rad corners, the Panda's limits.
+  cage 0001, RRT-Connect + shortcuts), ``blended`` with 0.05 rad corners, the Panda's limits;
+- (d) and (e) the P2 via points' random walk continued to 100 and to 1000 points (the same seed:
+  their first 50 points are (a)'s), ``spline``, (a)'s limits: the two ends of the target's
+  100-1000 waypoint range ((e) is some 250 s of motion on about 20,000 grid intervals).
 
 Columns: the duration, its ratio to toppra's, and the largest limit excess of each answer measured
 here on a dense resampling in time (``DENSE`` points per grid interval of the answer: velocity and
@@ -34,6 +37,8 @@ from core.timing.topp import time_optimal
 
 DENSE = 20
 """Resampling points per grid interval of an answer when its excess is measured."""
+WALKS = (100, 1000)
+"""Points of the longer random walks (d) and (e)."""
 
 
 def _load(name: str) -> dict:
@@ -41,11 +46,14 @@ def _load(name: str) -> dict:
 
 
 def problems() -> list[tuple[str, str, JointPath, np.ndarray, np.ndarray, int]]:
-    """(key, title, path, velocity limits, acceleration limits, waypoints) of (a), (b), (c)."""
+    """(key, title, path, velocity limits, acceleration limits, waypoints) of (a) to (e)."""
     from bench.joint import AMAX, VMAX, spline_problem
     from robots import registry
 
     _, via, _ = spline_problem()
+    walk = {n: np.cumsum(np.random.default_rng(7).uniform(-0.3, 0.3, (n, 6)), axis=0)
+            for n in WALKS}  # fmt: skip
+    assert np.array_equal(walk[WALKS[0]][: len(via)], via)  # (a)'s points, continued
     ten = np.asarray(_load("ten_lin_ur5_path.json")["waypoints"])
     free = np.asarray(_load("collision_free_panda_path.json")["waypoints"])
     ur5, panda = registry.get("ur5"), registry.get("panda")
@@ -55,6 +63,8 @@ def problems() -> list[tuple[str, str, JointPath, np.ndarray, np.ndarray, int]]:
          ur5.acceleration_limits, len(ten)),
         ("c", "collision-free Panda path, blended 0.05 rad", BlendedPath(free, 0.05),
          panda.velocity_limits, panda.acceleration_limits, len(free)),
+        *((key, "P2 via points' random walk continued, spline", SplinePath(walk[n]),
+           np.full(6, VMAX), np.full(6, AMAX), n) for key, n in zip("de", WALKS, strict=True)),
     ]  # fmt: skip
 
 

@@ -171,11 +171,18 @@ def _rows(
     return IntervalRows(
         alpha=np.concatenate([r.A + (2.0 * f * d)[:, None] * r.B for f, r in samples], axis=1),
         beta=np.concatenate([r.B for _, r in samples], axis=1),
-        lower=np.concatenate([-bound - r.C for _, r in samples], axis=1),
+        lower=np.concatenate([_lower(r.A, r.B, r.C, bound) for _, r in samples], axis=1),
         upper=np.concatenate([bound - r.C for _, r in samples], axis=1),
         delta=d,
         stops=stop[:-1],
     )
+
+
+def _lower(A: np.ndarray, B: np.ndarray, C: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """The lower bounds of rows ``-bound - C``, or -inf for rows that cannot go below 0 (B x,
+    B >= 0: a squared speed, since x >= 0 everywhere): bounds that never bind cost the passes
+    a line each."""
+    return np.where((A == 0.0) & (C == 0.0) & (B >= 0.0), -np.inf, -bound - C)
 
 
 def _solve(passes: Reachability, path: JointPath, s: np.ndarray) -> np.ndarray:
@@ -218,7 +225,7 @@ def _with_cuts(
     lower, upper = np.full((n, wide), -np.inf), np.full((n, wide), np.inf)
     alpha[i, rank] = A + 2.0 * g * d[i] * B
     beta[i, rank] = B
-    lower[i, rank], upper[i, rank] = -h[r] - C, h[r] - C
+    lower[i, rank], upper[i, rank] = _lower(A, B, C, h[r]), h[r] - C
     return IntervalRows(
         alpha=np.concatenate([rows.alpha, alpha], axis=1),
         beta=np.concatenate([rows.beta, beta], axis=1),
