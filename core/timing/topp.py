@@ -8,15 +8,17 @@ speed, effort; ``core.timing.path_constraints``): TOPP-RA's reachability analysi
 
 TOPP-RA keeps its limits at the grid points only; between them they can be exceeded (toppra 0.6.10
 by 7.5-56 % on joint accelerations, hungpham2511/toppra#150). Here every interval's limits are kept
-at both of its ends (x_i and x_i + 2 d_i u_i, TOPP-RA's "interpolation" discretization), then the
-answer is checked densely (``core.timing.dense_check``: samples in every interval, and at the path's
-joins, the peak between them estimated and, where it comes near the limit, found to ~1e-13). Where a peak
-exceeds its limit, that limit is tightened on that interval alone by the excess and the passes run
-again, until every peak is within ``TOLERANCE`` (the contract's 1e-9 relative) of its limit; if that
-does not converge in ``ROUNDS``, the whole profile is slowed uniformly until it is. The answer
-(``TimeOptimal``) is a ``Profile`` s(t) with constant s'' between grid times (``switch_times``), which
-samples q, q', q'' exactly (``sample``), reports which limit binds where (``binding``) and the
-duration of the untightened grid optimum (``grid_duration``).
+at both of its ends and at its midpoint (with x = x_i + 2 f d_i u_i at fraction f, a limit there is
+a row in (u_i, x_i)), then the answer is checked densely (``core.timing.dense_check``: samples in
+every interval and at the path's joins, the peak between them estimated and, where it comes near
+the limit, found to ~1e-13). Where a peak exceeds its limit, the limit at that very point is added
+to the interval's rows (a cut: exact, so nothing is given away) and the passes run again; once the
+largest excess is below ``FINISH``, the motion is slowed uniformly by it instead (s'^2 / lambda^2:
+rows without a constant term scale exactly, so no re-check is needed; with gravity in the effort
+rows the check runs again). Every peak ends within ``TOLERANCE`` (the contract's 1e-9 relative) of
+its limit. The answer (``TimeOptimal``) is a ``Profile`` s(t) with constant s'' between grid times
+(``switch_times``), which samples q, q', q'' exactly (``sample``), reports which limit binds where
+(``binding``) and the duration of the first grid optimum (``grid_duration``).
 """
 
 from __future__ import annotations

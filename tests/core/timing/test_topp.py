@@ -19,6 +19,7 @@ from core.joint.spline_path import SplinePath
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import Effort, PathLimits, ToolSpeed
 from core.timing.topp import TimeOptimal, time_optimal
+from tests.core.timing.helpers import Pendulums, walk
 
 toppra = pytest.importorskip("toppra")  # the bench extra: the reference of these tests
 algorithm = pytest.importorskip("toppra.algorithm")
@@ -62,11 +63,6 @@ def toppra_duration(
         constraints, ToppraPath(path), gridpoints=gridpoints, parametrizer="ParametrizeConstAccel"
     )
     return float(algo.compute_trajectory().duration)
-
-
-def walk(seed: int, n: int, dof: int = 6, step: float = 0.3) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    return np.cumsum(rng.uniform(-step, step, (n, dof)), axis=0)
 
 
 def dense(result: TimeOptimal, points: int = 200_001) -> tuple[np.ndarray, ...]:
@@ -172,19 +168,6 @@ def test_tool_speed_limits() -> None:
     assert np.linalg.norm(v[:, :3], axis=1).max() <= 0.4 * (1 + TOLERANCE)
     assert np.linalg.norm(v[:, 3:], axis=1).max() <= 0.7 * (1 + TOLERANCE)
     assert {b.limit for b in result.binding} & {"linear_speed", "angular_speed"}
-
-
-class Pendulums:
-    """Independent joints: tau_j = I_j q''_j + k_j sin(q_j) (g / 9.81): a toy ``Dynamics``."""
-
-    inertia = np.array([2.0, 1.0, 0.5])
-    weight = np.array([3.0, 1.0, 0.2])
-
-    def inverse_dynamics(self, q, qd, qdd, gravity):  # type: ignore[no-untyped-def]
-        return self.inertia * qdd + self.weight * np.sin(q) * (-gravity[2] / 9.81)
-
-    def path_coefficients(self, q, dq, ddq, gravity):  # type: ignore[no-untyped-def]
-        return self.inertia * dq, self.inertia * ddq, self.weight * np.sin(q) * (-gravity[2] / 9.81)
 
 
 def test_effort_limits() -> None:
