@@ -16,6 +16,10 @@ interface):
   their first 50 points are (a)'s), ``spline``, (a)'s limits: the two ends of the target's
   100-1000 waypoint range ((e) is some 250 s of motion on about 20,000 grid intervals).
 
+On the splines (a), (b), (d) a third row times the same path with joint jerk limits as well
+(``core.timing.path_jerk``, informational: how much longer than time-optimal that is; no peer
+follows a fixed path under jerk limits).
+
 Columns: the duration, its ratio to toppra's, and the largest limit excess of each answer measured
 here on a dense resampling in time (``DENSE`` points per grid interval of the answer: velocity and
 acceleration over the limits, minus 1; 0 when within). Targets (issue 24): duration <= 1.02x
@@ -33,12 +37,17 @@ from core.joint.blended_path import BlendedPath
 from core.joint.spline_path import SplinePath
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import PathLimits
+from core.timing.path_jerk import jerk_limited
 from core.timing.topp import time_optimal
 
 DENSE = 20
 """Resampling points per grid interval of an answer when its excess is measured."""
 WALKS = (100, 1000)
 """Points of the longer random walks (d) and (e)."""
+JERK = {"a": 100.0, "b": 50.0, "d": 100.0}
+"""Jerk limits [rad/s^3] of the jerk-limited rows: P1c's for the walks, ten times the UR5's
+acceleration limit for (b) (Universal Robots publish none); (c) is blended (no jerk limits), (e)
+takes seconds."""
 
 
 def _load(name: str) -> dict:
@@ -115,6 +124,8 @@ def r1_retime() -> list[Table]:
                 )
             )
         rows[0].extra, rows[0].note = extra, note
+        if key in JERK:
+            rows.insert(1, _jerk_row(path, limits, np.full(path.dof, JERK[key]), result.duration))
         tables.append(
             Table(
                 f"R1{key}",
@@ -124,12 +135,35 @@ def r1_retime() -> list[Table]:
                 columns=("duration [s]", "ratio to toppra", "excess"),
                 notes=[
                     "excess: the largest |q'| / limit or |q''| / limit minus 1 on a resampling "
-                    f"of {DENSE} points per grid interval of each answer (0: within the limits)."
+                    f"of {DENSE} points per grid interval of each answer (0: within the limits); "
+                    "for the jerk-limited row also the slope of q'' between the resampled points "
+                    "over the jerk limit."
                 ],
                 unit="ms",
             )
         )
     return tables
+
+
+def _jerk_row(path: JointPath, limits: PathLimits, jerk: np.ndarray, optimal: float) -> Row:
+    """The same path with jerk limits too (``core.timing.path_jerk``): its duration over the
+    time-optimal one and its excess, jerk included (slopes of q'' on the resampling)."""
+
+    def run():  # type: ignore[no-untyped-def]
+        return jerk_limited(path, limits, jerk)
+
+    result = run()
+    t = np.linspace(0.0, result.duration, DENSE * len(result.profile.s) + 1)
+    _, qd, qdd = result.sample(t)
+    slopes = np.abs(np.diff(qdd, axis=0)) / np.diff(t)[:, None]
+    worst = max((np.abs(qd) / limits.velocity).max(), (np.abs(qdd) / limits.acceleration).max(),
+                (slopes / jerk).max())  # fmt: skip
+    return Row(
+        f"ours: core jerk_limited, J = {jerk[0]:g} rad/s^3",
+        run,
+        extra={"duration [s]": f"{result.duration:.4f}", "excess": f"{max(0.0, worst - 1.0):.2g}"},
+        note=f"{result.duration / optimal:.3f}x the time-optimal duration (informational)",
+    )
 
 
 def _toppra(path: JointPath, v: np.ndarray, a: np.ndarray, key: str, n: int):  # type: ignore[no-untyped-def]

@@ -5,7 +5,7 @@ whose rate is dq/ds = 1 / cap(s), under velocity limit 1, therefore keeps s' <= 
 ``CappedPath`` adds that coordinate (``cap`` piecewise linear over ``knots``, which are its
 ``joins``: the cap's slope, so that coordinate's d2q/ds2, steps there), and ``capped_limits``
 the matching limits (velocity 1, no acceleration limit; tool and effort limits see the original
-coordinates only). ``CAP_ROW`` is the label of that row among the limits' rows.
+coordinates only).
 """
 
 from __future__ import annotations
@@ -74,8 +74,3 @@ def capped_limits(limits: PathLimits) -> PathLimits:
                         np.append(effort.limits, np.inf), effort.gravity)  # fmt: skip
     return PathLimits(np.append(limits.velocity, 1.0), np.append(limits.acceleration, np.inf),
                       tool=tool, effort=effort)  # fmt: skip
-
-
-def cap_row(limits: PathLimits) -> int:
-    """Index of the cap's velocity row among the rows of ``capped_limits(...)`` = ``limits``."""
-    return limits.labels().index(("velocity", len(limits.velocity) - 1))

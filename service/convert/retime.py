@@ -90,7 +90,7 @@ def retime_diagnostics(plan: RetimePlan) -> dict[str, Any]:
             for b in plan.timing.binding
         ],
         "path_length": plan.path_length,
-        "grid_points": len(plan.timing.switch_times),
+        "grid_points": len(plan.timing.profile.s),
     }
     if plan.time_optimal_duration is not None:
         out["time_optimal_duration"] = plan.time_optimal_duration
