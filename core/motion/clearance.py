@@ -10,11 +10,13 @@ the obstacles, or against the other links).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from core.clearance import Clearance
+from core.kinematics import PathCheck
 
 
 @runtime_checkable
@@ -36,6 +38,15 @@ class GroupClearance(Clearance, Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class _Clear:
+    """The continuous check of a motion with no pair to check."""
+
+    contact: None = None
+    min_clearance: float = np.inf
+    closest: None = None
+
+
 class Unobstructed:
     """The clearance of a robot with nothing to collide with (no geometry, or no pair checked):
     no pairs, every configuration and segment clear."""
@@ -48,8 +59,8 @@ class Unobstructed:
     def distances(self, qs: np.ndarray) -> np.ndarray:
         return np.zeros((len(np.atleast_2d(qs)), 0))
 
-    def check_path(self, times: np.ndarray, qs: np.ndarray) -> object:
-        return None
+    def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
+        return _Clear()
 
     def close_pairs(
         self, q: np.ndarray, d_influence: float
