@@ -286,9 +286,10 @@ def plan_motion(
     check: Clearance | None = None,
 ) -> MotionResult:
     """The timed collision-free motion of ``task`` (module docstring). ``clearance`` is what the
-    planner asks; ``check`` the request's collision object, whose pipeline checks
-    (``core.collisions``) answer for the ends and for the returned motion (default:
-    ``clearance`` itself, when it has pairs)."""
+    planner asks, and the usual continuous check of the returned motion runs on it
+    (``core.collisions.checked``: its ``check_path`` is the request's own check); ``check`` is the
+    request's collision object, which answers for the ends with its real pair names
+    (``core.collisions.check_ends``; default: ``clearance`` itself, when it has pairs)."""
     lim = task.limits
     if task.timing not in TIMINGS:
         raise InputError(f"timing must be one of {', '.join(TIMINGS)}", field=("timing",))
@@ -323,7 +324,7 @@ def plan_motion(
         )
         waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
-    report = checked(trajectory, check)
+    report = checked(trajectory, clearance if len(clearance.pair_names) else None)
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,
         found.planner, q_goal, goals.labels[found.goal], task.timing, report,
