@@ -32,7 +32,7 @@ from core.limits import JointLimits
 from core.motion.certify import Certifier
 from core.motion.clearance import GroupClearance
 from core.motion.goals import Goals, clear_goals
-from core.motion.repair import SEARCH_MARGIN, SEARCH_RESOLUTION, Repair, repair
+from core.motion.repair import SEARCH_MARGIN, SEARCH_RESOLUTION, Repair, reduced
 from core.motion.sample import certified_samples, stop_and_go_samples
 from core.motion.sampler import RRTConnect, Sampler, SearchProblem
 from core.motion.shorten import path_length, shorten
@@ -136,7 +136,7 @@ def find_path(
         iterations, states = iterations + found.iterations, states + found.states
         if found.path is not None:
             search = Repair(certifier, lower, upper, sampler, end)
-            path = repair(search, found.path, _seed(seed, attempt))
+            path = reduced(search, found.path, _seed(seed, attempt))
             if path is not None:
                 break
     search_ms = (time.perf_counter() - started) * 1e3

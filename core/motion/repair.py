@@ -91,3 +91,38 @@ def repair(search: Repair, path: np.ndarray, seed: int, depth: int = 0) -> np.nd
             return None
         out.append(fixed[1:])
     return np.vstack(out)
+
+
+LAZY_REDUCE = True
+"""Reduce the lazy path's vertices with the quick probe before certifying it (``reduced``)."""
+REDUCE_TRIES = 8
+"""Later knots the lazy vertex reduction tries from each kept knot (farthest first)."""
+
+
+def reduced(search: Repair, path: np.ndarray, seed: int) -> np.ndarray | None:
+    """``repair`` of the lazy search's ``path`` after a greedy vertex reduction that only probes
+    (``Certifier.probably_clear``: a search tree's path of many short edges becomes a few long
+    ones): each reduced segment is then certified, and one that is not falls back to the part of
+    ``path`` it skipped, repaired segment by segment. So the segments certified are those kept,
+    not the many a shortening would drop anyway."""
+    if not LAZY_REDUCE:
+        return repair(search, path, seed)
+    keep, i, n = [0], 0, len(path)
+    while i < n - 1:
+        j = i + 1
+        for far in range(n - 1, max(i + 1, n - 1 - REDUCE_TRIES), -1):
+            if search.certifier.probably_clear(path[[i, far]]):
+                j = far
+                break
+        keep.append(j)
+        i = j
+    out = [path[:1]]
+    for a, b in itertools.pairwise(keep):
+        if b > a + 1 and search.certifier.path(path[[a, b]]).ok:
+            out.append(path[b][None])
+            continue
+        fixed = repair(search, path[a : b + 1], seed)
+        if fixed is None:
+            return None
+        out.append(fixed[1:])
+    return np.vstack(out)
