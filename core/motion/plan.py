@@ -115,7 +115,8 @@ def find_path(
     q_start = np.asarray(q_start, dtype=float)
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
     for i, q_goal in enumerate(goals):
-        if certifier.path(np.vstack([q_start, q_goal])).ok:
+        direct = np.vstack([q_start, q_goal])
+        if certifier.probably_clear(direct) and certifier.path(direct).ok:
             ms = (time.perf_counter() - started) * 1e3
             report = PlannerReport("direct", seed, 1, 2, ms, 0.0, 0.0)
             knots = np.vstack([q_start, q_goal])
