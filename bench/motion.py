@@ -28,6 +28,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import itertools  # noqa: E402
 import time  # noqa: E402
 from dataclasses import dataclass, field  # noqa: E402
 from typing import Any  # noqa: E402
@@ -96,7 +97,7 @@ def recheck(check: CollisionChecker, qs: np.ndarray) -> tuple[bool, float]:
     if result.contact is None:
         return True, 0.0
     dense = [qs[:1]]
-    for a, b in zip(qs[:-1], qs[1:], strict=True):
+    for a, b in itertools.pairwise(qs):
         n = max(int(np.ceil(np.linalg.norm(b - a) / SWEEP_STEP)), 1)
         dense.append(a + np.arange(1, n + 1)[:, None] / n * (b - a))
     grouped = GroupedClearance(check)
