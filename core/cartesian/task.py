@@ -76,6 +76,10 @@ class CartesianTask:
             the start before planning, then the returned motion, continuously); the same object as
             ``clearance`` when the request has an environment, else the robot's self pairs only.
             None: nothing to check.
+        keep_configuration: The trajectory keeps the start's configuration label (default). False
+            lets the rate controllers pass a wrist singularity (the label changes, reported in
+            ``diagnostics["configuration_changes"]``); the other methods follow one IK branch
+            anyway.
     """
 
     robot: Kinematics
@@ -102,6 +106,7 @@ class CartesianTask:
     max_angular_acceleration: float | None = None
     clearance: Clearance | None = None
     collision_check: Clearance | None = None
+    keep_configuration: bool = True
 
     def line(self) -> Path:
         """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);
