@@ -55,22 +55,15 @@ class GroupedClearance:
         self._names = list(names)
         self.pair_names: list[tuple[str, str]] = list(group_of)
         G, dof = len(group_of), robot.dof
-        # thresholds and weights by the names of the checker's pairs (several capsules per link
-        # share a name; a group takes the largest row of every pair it may hold)
-        by_name: dict[tuple[str, str], tuple[float, np.ndarray]] = {}
-        for p, name in enumerate(checker.pair_names):
-            thr, w = by_name.get(name, (0.0, np.zeros(dof)))
-            by_name[name] = (
-                max(thr, float(checker.threshold[p])),
-                np.maximum(w, checker.motion_weights[p]),
-            )
+        # a group's threshold and weights: the largest of its pairs' (several shapes per link)
+        kind = {n: "links" for n in links}
+        of_pair = np.array(
+            [group_of[(a, kind.get(b, "obstacles"))] for a, b in checker.pair_names], dtype=int
+        )
         self.threshold = np.zeros(G)
         self.motion_weights = np.zeros((G, dof))
-        for k, name in enumerate(names):
-            g = self._pair_group[k]
-            thr, w = by_name[name]
-            self.threshold[g] = max(self.threshold[g], thr)
-            self.motion_weights[g] = np.maximum(self.motion_weights[g], w)
+        np.maximum.at(self.threshold, of_pair, np.asarray(checker.threshold, dtype=float))
+        np.maximum.at(self.motion_weights, of_pair, np.asarray(checker.motion_weights, dtype=float))
         self._members = [np.flatnonzero(self._pair_group == g) for g in range(G)]
         self._build_groups()
         self._local = threading.local()
@@ -110,19 +103,18 @@ class GroupedClearance:
         return bool(pin.computeCollisions(self._model, data, manager, np.asarray(q, float), True))
 
     def _build_groups(self) -> None:
-        objects = self._gm.geometryObjects
-        pairs = self._gm.collisionPairs
+        objects = list(self._gm.geometryObjects)
+        pairs = [(cp.first, cp.second) for cp in self._gm.collisionPairs]
         self._group_models, self._group_pairs = [], []
         for members in self._members:
             gm = pin.GeometryModel()
             new: dict[int, int] = {}
-            for k in members:
-                for i in (pairs[int(k)].first, pairs[int(k)].second):
+            for k in members.tolist():
+                first, second = pairs[k]
+                for i in (first, second):
                     if i not in new:
                         new[i] = gm.addGeometryObject(objects[i])
-                gm.addCollisionPair(
-                    pin.CollisionPair(new[pairs[int(k)].first], new[pairs[int(k)].second])
-                )
+                gm.addCollisionPair(pin.CollisionPair(new[first], new[second]))
             self._group_models.append(gm)
             self._group_pairs.append(np.asarray(members, dtype=int))
 
@@ -158,8 +150,28 @@ class GroupedClearance:
 
     def min_distances(self, qs: np.ndarray) -> np.ndarray:
         """Smallest distance ``(N,)`` [m] over every pair at each row of ``qs`` (coal; the same
-        value as ``CollisionChecker.min_distances`` to coal's tolerance where no pair touches)."""
-        return self.distances(qs).min(axis=1, initial=np.inf)
+        value as ``CollisionChecker.min_distances`` to coal's tolerance where no pair touches).
+
+        Rows in sequence (a motion's points) share their work: a group's distance at a row is at
+        least its distance (or bound) at the row before minus its motion bound over the step, so
+        after the group nearest by that bound is evaluated only the groups whose bound falls below
+        its distance are (exact: every other group is at least that far)."""
+        qs = np.atleast_2d(np.asarray(qs, dtype=float))
+        G = len(self._members)
+        out = np.full(len(qs), np.inf)
+        if G == 0 or len(qs) == 0:
+            return out
+        value = self._group_minima(qs[0])[0]
+        out[0] = value.min()
+        for n in range(1, len(qs)):
+            value = value - self.motion_weights @ np.abs(qs[n] - qs[n - 1])
+            first = int(np.argmin(value))
+            value[first] = self._group_minima(qs[n], np.array([first]))[0][0]
+            rest = np.flatnonzero(value < value[first])
+            if len(rest):
+                value[rest] = self._group_minima(qs[n], rest)[0]
+            out[n] = value.min()
+        return out
 
     def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
         """The checker's continuous check (every pair, names of the real pairs)."""

@@ -246,6 +246,20 @@ class TrajectoryClient:
         ``raw["segments"]`` times each."""
         return self._call("trajectories/program", body, fields, as_numpy, COLUMNS)
 
+    def retime(
+        self, body: Mapping[str, Any] | None = None, /, *, as_numpy: bool = False, **fields: Any
+    ) -> Trajectory:
+        """``POST /v1/trajectories/retime``: the time-optimal timing of a path through
+        ``waypoints`` (``spline`` or ``blended`` corners)."""
+        return self._call("trajectories/retime", body, fields, as_numpy, COLUMNS)
+
+    def collision_free(
+        self, body: Mapping[str, Any] | None = None, /, *, as_numpy: bool = False, **fields: Any
+    ) -> Trajectory:
+        """``POST /v1/trajectories/collision_free``: a joint motion from ``start`` to ``goal``
+        that plans around the ``environment``; ``raw["waypoints"]`` is its geometric path."""
+        return self._call("trajectories/collision_free", body, fields, as_numpy, COLUMNS)
+
     def compare(
         self, body: Mapping[str, Any] | None = None, /, *, as_numpy: bool = False, **fields: Any
     ) -> Comparison:

@@ -16,6 +16,8 @@ PARSERS: dict[str, Callable[[dict[str, Any], bool], Any]] = {
     "trajectories/spline": Trajectory.from_json,
     "trajectories/cartesian": Trajectory.from_json,
     "trajectories/program": Trajectory.from_json,
+    "trajectories/retime": Trajectory.from_json,
+    "trajectories/collision_free": Trajectory.from_json,
     "compare": Comparison.from_json,
 }
 

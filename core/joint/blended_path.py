@@ -1,105 +1,153 @@
-"""A geometric joint path through waypoints: straight joint segments with circular corner blends.
+"""A geometric joint path through knots: straight joint segments with circular corner blends.
 
-``BlendedPath`` implements ``core.timing.joint_path.JointPath`` for the retime endpoint's
-``"path": "blended"``, built as MoveIt's time-optimal trajectory generation builds its path (Kunz
-and Stilman, "Time-optimal trajectory generation for path following with bounded acceleration and
-velocity", RSS 2012; moveit_core ``time_optimal_trajectory_generation.cpp``, ``CircularPathSegment``):
-at every interior waypoint the corner between the two straight segments is replaced by the circular
-arc tangent to both, whose closest point is at most ``max_deviation`` from the corner and which uses
-at most half of either segment. With turning angle theta and distance d from the corner to the
-arc's ends along each segment, the arc's radius is ``d / tan(theta / 2)`` and its deviation
-``d (1 - cos(theta / 2)) / sin(theta / 2)``, so ``d = min(half segments, max_deviation sin(theta/2) /
-(1 - cos(theta/2)))``.
+``BlendedPath`` implements ``core.timing.joint_path.JointPath``; it is the retime endpoint's
+``"path": "blended"`` and a collision-free motion's geometric path (``core.motion.plan.blend``).
+It is built as MoveIt's time-optimal trajectory generation builds its path (Kunz and Stilman,
+"Time-optimal trajectory generation for path following with bounded acceleration and velocity",
+RSS 2012; moveit_core ``time_optimal_trajectory_generation.cpp``, ``CircularPathSegment``): each
+interior corner is rounded by an arc of a circle in the plane of its two segments, tangent to
+both. With unit directions ``y_a`` in and ``y_b`` out and the turn angle ``alpha``, the arc leaves
+the corner's segments ``l`` before and after it, ``l = min(|seg_a| / 2, |seg_b| / 2, deviation /
+tan(alpha / 4))``, so it passes within ``deviation`` [rad or m] of the corner; its radius is
+``r = l / tan(alpha / 2)``. One deviation for every corner (retime's ``max_deviation``) or one per
+knot (a collision-free motion certifies each blend by its own corner's margins).
 
-s is the arc length [rad or m] (|dq/ds| = 1), so the derivatives are exact: a line has dq/ds = its
-direction and d2q/ds2 = 0; an arc of radius r, q = c + r (x cos(phi/r) + y sin(phi/r)), has
-d2q/ds2 of length 1/r. Corners that turn by less than ``COLLINEAR`` are straight; corners that turn
-back by more than pi - ``REVERSAL`` get no arc: dq/ds reverses there, and a timing law must stop
-(``core.timing.topp`` stops wherever dq/ds jumps).
+The path parameter s is joint-space arc length, so ``|dq/ds| = 1`` and every derivative is exact:
+on a line dq/ds is its direction and d2q/ds2 = d3q/ds3 = 0; an arc ``q(phi) = start + r (sin(phi)
+y + (1 - cos(phi)) n)``, ``phi = u / r``, is written without its centre and with ``1 - cos`` as
+``2 sin^2(phi / 2)``, so an arc of a huge radius (a corner that barely turns) stays exact. Corners
+that turn by less than ``STRAIGHT`` are straight; a corner whose deviation is 0, or that turns back
+by more than ``pi - REVERSAL``, stays sharp: dq/ds jumps there, so a timing law stops there
+(``stops``; ``core.timing.topp`` stops wherever dq/ds jumps). Units: [rad or m].
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-COLLINEAR = 1e-10
-"""Turning angle [rad] below which a corner is straight (no arc)."""
+SHORTEST = 1e-12
+"""A line between two blends shorter than this (relative to the path length so far) is dropped:
+its path parameter would not advance in double precision."""
+STRAIGHT = 1e-9
+"""[rad] Turns smaller than this are not corners (neither blended nor stopped at)."""
 REVERSAL = 1e-6
-"""A corner turning by more than pi minus this [rad] reverses: no arc, the motion stops there."""
+"""[rad] A corner turning by more than pi minus this reverses: no arc, the motion stops there."""
 
 
 class BlendedPath:
-    """q(s), s in [0, ``length``], along ``waypoints`` ``(n, dof)`` (n >= 2, consecutive ones
-    distinct) with corners rounded within ``max_deviation`` [rad or m] (> 0)."""
+    """q(s), s in [0, ``length``], along the straight segments through ``knots`` ``(K, dof)``,
+    corner k rounded within ``deviations`` [rad or m]: one value for every corner, or one per knot
+    (the ends' ignored); default none: every corner sharp. Consecutive knots may repeat (a segment
+    of zero length is skipped).
 
-    def __init__(self, waypoints: np.ndarray, max_deviation: float) -> None:
-        q = np.asarray(waypoints, dtype=float)
-        self.dof = int(q.shape[1])
-        seg = np.diff(q, axis=0)
-        seglen = np.linalg.norm(seg, axis=1)
-        d = seg / seglen[:, None]
-        n = len(q)
-        dist = np.zeros(n)  # distance from each corner to its arc's ends along the segments
-        arcs: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, float, float]] = {}
-        for k in range(1, n - 1):
-            d0, d1 = d[k - 1], d[k]
-            theta = 2.0 * np.arctan2(np.linalg.norm(d1 - d0), np.linalg.norm(d1 + d0))
-            if theta < COLLINEAR or theta > np.pi - REVERSAL:
-                continue
-            half = 0.5 * theta
-            reach = max_deviation * np.sin(half) / (2.0 * np.sin(0.5 * half) ** 2)
-            dist[k] = min(0.5 * seglen[k - 1], 0.5 * seglen[k], reach)
-            r = float(dist[k] / np.tan(half))
-            bisector = (d1 - d0) / np.linalg.norm(d1 - d0)
-            center = q[k] + bisector * (r / np.cos(half))
-            x = q[k] - dist[k] * d0 - center
-            arcs[k] = (center, x / np.linalg.norm(x), d0, r, r * float(theta))
-        origin: list[np.ndarray] = []
-        e1: list[np.ndarray] = []
-        e2: list[np.ndarray] = []
-        radius: list[float] = []
-        lengths: list[float] = []
-        for k in range(n - 1):
-            if k in arcs:
-                c, x, y, r_k, length = arcs[k]
-                for target, value in ((origin, c), (e1, x), (e2, y)):
-                    target.append(value)
-                radius.append(r_k)
-                lengths.append(length)
-            line = seglen[k] - dist[k] - dist[k + 1]
-            if line > 0.0 or (k == n - 2 and not lengths):
-                origin.append(q[k] + dist[k] * d[k])
-                e1.append(d[k])
-                e2.append(np.zeros(self.dof))
+    Attributes:
+        knots: ``(K, dof)``.
+        deviations: ``(K,)`` per knot.
+        length: [rad or m] arc length of the path.
+        arcs: Number of rounded corners.
+    """
+
+    def __init__(self, knots: np.ndarray, deviations: float | np.ndarray | None = None) -> None:
+        knots = np.asarray(knots, dtype=float)
+        self.knots = knots
+        self.dof = int(knots.shape[1])
+        K = len(knots)
+        dev = np.zeros(K) if deviations is None else np.asarray(deviations, dtype=float)
+        self.deviations = np.broadcast_to(dev, (K,)).copy()
+        seg = np.diff(knots, axis=0)
+        length = np.linalg.norm(seg, axis=1)
+        unit = seg / np.where(length > 0, length, 1.0)[:, None]
+        reach = np.zeros(K)  # how far each corner's arc reaches along its segments
+        arcs: dict[int, tuple[np.ndarray, float, np.ndarray, float]] = {}
+        for k in range(1, K - 1):
+            arc = _arc(unit[k - 1], unit[k], length[k - 1], length[k], self.deviations[k])
+            if arc is not None:
+                arcs[k] = arc
+                reach[k] = arc[1] * np.tan(arc[3] / 2)
+        # pieces, in order: a start point, y, n (zero on lines), radius (inf on lines), length
+        start, y, n, radius, size = [], [], [], [], []
+        total = 0.0
+        for k in range(K - 1):
+            line = float(max(length[k] - reach[k] - reach[k + 1], 0.0))
+            if line > SHORTEST * max(1.0, total):  # shorter: lost in the sum of lengths
+                start.append(knots[k] + reach[k] * unit[k])
+                y.append(unit[k])
+                n.append(np.zeros(self.dof))
                 radius.append(np.inf)
-                lengths.append(line)
-        self._origin, self._e1, self._e2 = np.array(origin), np.array(e1), np.array(e2)
+                size.append(line)
+                total += line
+            if k + 1 in arcs:
+                normal, r, y_in, angle = arcs[k + 1]
+                start.append(knots[k + 1] - reach[k + 1] * y_in)
+                y.append(y_in)
+                n.append(normal)
+                radius.append(r)
+                size.append(r * angle)
+                total += r * angle
+        if not size:  # every knot the same: one line of zero length
+            start, y, n = [knots[0]], [np.zeros(self.dof)], [np.zeros(self.dof)]
+            radius, size = [np.inf], [0.0]
+        self._start, self._y, self._n = np.array(start), np.array(y), np.array(n)
         self._radius = np.array(radius)
-        self._starts = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
-        self._lengths = np.array(lengths)
-        self.length = float(np.sum(lengths))
+        self._size = np.array(size)
+        self._starts = np.concatenate([[0.0], np.cumsum(size)[:-1]])
+        self.length = float(np.sum(size))
         self.arcs = len(arcs)
+        turn = np.arccos(np.clip(np.einsum("ij,ij->i", unit[:-1], unit[1:]), -1.0, 1.0))
+        sharp = [k for k in range(1, K - 1) if k not in arcs and turn[k - 1] >= STRAIGHT
+                 and length[k - 1] > 0 and length[k] > 0]  # fmt: skip
+        # a sharp knot's s: its distance along the polyline less what the arcs before it cut off
+        cut = np.zeros(K)
+        for k, (_, r, _, angle) in arcs.items():
+            cut[k] = 2 * reach[k] - r * angle
+        polyline = np.concatenate([[0.0], np.cumsum(length)])
+        self._stops = np.array([polyline[k] - cut[:k].sum() for k in sharp])
+
+    def stops(self) -> np.ndarray:
+        """Path parameters of the sharp corners, where the direction turns: the motion must come
+        to rest there."""
+        return self._stops.copy()
+
+    def breakpoints(self) -> np.ndarray:
+        """Path parameters ``(B,)`` where pieces meet (d2q/ds2 may jump), 0 and ``length``
+        included."""
+        return np.concatenate([self._starts, [self.length]])
 
     def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
-        """q [rad or m] (``order=0``), dq/ds (1), d2q/ds2 (2) or d3q/ds3 (3) at ``s`` ``(K,)``
-        (clipped to [0, length]; at a junction, the piece that starts there): ``(K, dof)``."""
-        s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
+        """q (``order=0``), dq/ds (1), d2q/ds2 (2) or d3q/ds3 (3) at ``s`` ``(n,)`` (clipped to
+        [0, length]; at a junction, the piece that starts there): ``(n, dof)``, exact."""
+        s = np.clip(np.asarray(s, dtype=float).reshape(-1), 0.0, self.length)
         k = np.clip(np.searchsorted(self._starts, s, side="right") - 1, 0, len(self._starts) - 1)
-        phi = np.clip(s - self._starts[k], 0.0, self._lengths[k])[:, None]
+        u = np.clip(s - self._starts[k], 0.0, self._size[k])[:, None]
         r = self._radius[k][:, None]
         arc = np.isfinite(r)
         rr = np.where(arc, r, 1.0)
-        ang = np.where(arc, phi / rr, 0.0)
-        c, sn = np.cos(ang), np.sin(ang)
-        e1, e2 = self._e1[k], self._e2[k]
+        phi = np.where(arc, u / rr, 0.0)
+        y, n = self._y[k], self._n[k]
+        c, sn = np.cos(phi), np.sin(phi)
         if order == 0:
-            return self._origin[k] + np.where(arc, rr * (e1 * c + e2 * sn), phi * e1)
+            bend = 2.0 * np.sin(phi / 2) ** 2
+            return self._start[k] + np.where(arc, rr * (sn * y + bend * n), u * y)
         if order == 1:
-            return np.where(arc, e2 * c - e1 * sn, e1)
+            return np.where(arc, c * y + sn * n, y)
         if order == 2:
-            return np.where(arc, -(e1 * c + e2 * sn) / rr, 0.0)
-        return np.where(arc, (e1 * sn - e2 * c) / rr**2, 0.0)
+            return np.where(arc, (c * n - sn * y) / rr, 0.0)
+        return np.where(arc, -(sn * n + c * y) / rr**2, 0.0)
 
-    def breakpoints(self) -> np.ndarray:
-        """Where pieces join (d2q/ds2 jumps), 0 and ``length`` included ``(B,)``."""
-        return np.concatenate([self._starts, [self.length]])
+
+def _arc(
+    y_a: np.ndarray, y_b: np.ndarray, len_a: float, len_b: float, deviation: float
+) -> tuple[np.ndarray, float, np.ndarray, float] | None:
+    """The blend of one corner, ``(n, radius, y_a, angle)`` (``n``: the unit normal towards the
+    centre), or None when it stays sharp (no deviation allowed, no turn, a reversal, or a segment
+    of zero length)."""
+    if deviation <= 0 or len_a <= 0 or len_b <= 0:
+        return None
+    angle = float(2.0 * np.arctan2(np.linalg.norm(y_b - y_a), np.linalg.norm(y_b + y_a)))
+    if angle < STRAIGHT or angle > np.pi - REVERSAL:
+        return None
+    half = angle / 2
+    reach = min(len_a / 2, len_b / 2, deviation / np.tan(half / 2))
+    n = y_b - (y_a @ y_b) * y_a  # the part of the outgoing direction across the incoming one
+    n /= np.linalg.norm(n)
+    return n, float(reach / np.tan(half)), y_a.copy(), angle

@@ -5,7 +5,8 @@ builds the path (``PATHS``: ``spline`` or ``blended``), checks it against the po
 densely, times it with ``core.timing.topp.time_optimal`` under the joint, tool and effort limits
 (with jerk limits, on a spline only, ``core.timing.path_jerk.jerk_limited``), and samples it.
 Every returned point lies on the path; the returned times hold, around every grid time where s''
-switches, two points ``MIN_SPACING`` apart with the switch exactly between them (so integrating
+switches, two points ``MIN_SPACING`` apart with the switch exactly between them
+(``core.timing.switch_times.with_switches``: integrating
 the returned accelerations between consecutive points by the trapezoid rule gives the returned
 velocities: the jump is integrated exactly, and no other point pair holds one), merged with the
 requested sampling (other points closer than ``MIN_SPACING`` are one; a jerk-limited motion's s''
@@ -23,7 +24,7 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.collisions import ClearanceReport, End, check_ends, checked
-from core.errors import InputError, JointLimit, TooLarge
+from core.errors import InputError, JointLimit
 from core.joint.blended_path import BlendedPath
 from core.joint.spline_path import SplinePath
 from core.kinematics import Clearance, Dynamics
@@ -31,13 +32,13 @@ from core.limits import JointLimits, check_positions, outside
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import Effort, PathLimits, ToolSpeed
 from core.timing.path_jerk import JerkLimited, jerk_limited
+from core.timing.switch_times import with_switches
 from core.timing.topp import TimeOptimal, time_optimal
 from core.trajectory import (
     MAX_POINTS,
     Peaks,
     Trajectory,
     default_joint_names,
-    sample_times,
     sampled_peak_jerk,
 )
 
@@ -47,8 +48,6 @@ DEFAULT_MAX_DEVIATION = 0.1
 """Corner deviation [rad or m] of a ``blended`` path when the request gives none."""
 MIN_STEP = 1e-9
 """Consecutive waypoints closer than this [rad or m] are repeated (no direction between them)."""
-MIN_SPACING = 1e-6
-"""Returned points closer than this [s] are one (a grid time wins over a sample time)."""
 DENSE = 3
 """Points between consecutive returned points where the peaks are measured."""
 POSITION_CHECKS = 16
@@ -161,7 +160,7 @@ def plan_retime(
     else:
         timing = jerk_limited(geometry, path_limits, jerk, joint_names=names, deadline=deadline)
     deadline.check("retime")
-    times = _times(timing, sample_period, samples, max_points)
+    times = with_switches(timing.switch_times, sample_period, samples, max_points)
     q_t, qd_t, qdd_t = timing.sample(times)
     qd_t[0] = qd_t[-1] = 0.0
     dense = times[:-1, None] + np.diff(times)[:, None] * np.arange(1, DENSE + 1) / (DENSE + 1)
@@ -204,44 +203,6 @@ def _jerk(limits: JointLimits, path: str) -> np.ndarray | None:
             field=("limits", "jerk"),
         )
     return np.asarray(limits.jerk, dtype=float)
-
-
-def _times(
-    timing: TimeOptimal | JerkLimited,
-    sample_period: float | None,
-    samples: int | None,
-    max_points: int,
-) -> np.ndarray:
-    """The requested sample times merged with a pair of times ``MIN_SPACING`` apart around every
-    interior switch time of s'' (the switch exactly between them, so the trapezoid rule over the
-    pair integrates the acceleration's jump exactly), or the switch times themselves when the
-    pairs would exceed ``max_points``; any other two times closer than ``MIN_SPACING`` are one."""
-    base = sample_times(timing.duration, sample_period, samples, max_points)
-    switch = timing.switch_times[1:-1]
-    half = 0.5 * MIN_SPACING
-    wide = np.diff(timing.switch_times)
-    alone = (wide[:-1] > 4.0 * MIN_SPACING) & (wide[1:] > 4.0 * MIN_SPACING)
-    if len(base) + len(switch) + alone.sum() > max_points:
-        alone[:] = False  # no room for pairs: one point at each switch (a path of many pieces)
-    pairs = np.concatenate([switch[alone] - half, switch[alone] + half, switch[~alone]])
-    fixed = np.concatenate([[0.0, timing.duration], pairs])
-    fixed.sort()
-    near = np.searchsorted(fixed, base)
-    gap = np.minimum(
-        np.abs(base - fixed[np.clip(near, 0, len(fixed) - 1)]),
-        np.abs(base - fixed[np.clip(near - 1, 0, len(fixed) - 1)]),
-    )
-    merged = np.union1d(fixed, base[gap >= MIN_SPACING])
-    keep = np.concatenate([[True], np.diff(merged) >= 0.99 * MIN_SPACING])
-    merged = merged[keep]
-    merged[-1] = timing.duration
-    if len(merged) > max_points:
-        raise TooLarge(
-            f"the motion switches acceleration at {len(switch)} times; with the sampling asked "
-            f"that is {len(merged)} points, over the limit of {max_points}",
-            field=("samples",) if samples is not None else ("sample_period",),
-        )
-    return merged
 
 
 def _check_positions(path: JointPath, limits: JointLimits, names: tuple[str, ...]) -> None:

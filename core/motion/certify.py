@@ -92,8 +92,9 @@ def certify(
 ) -> Certificate:
     """Prove the path ``q_at(s)`` clear between its breakpoints ``s`` ``(K,)``, pair by pair.
 
-    Piece by piece, depth first: an interval's pairs whose bound ``(m_a + m_b - B) / 2`` is
-    non-negative are proven (an end not evaluated for a pair is bounded from the other end,
+    Runs of pieces first (``_Work.knots``: a run's pairs whose margins at its two end knots exceed
+    its cumulative bound are proven for all its pieces), then piece by piece, depth first: an
+    interval's pairs whose bound ``(m_a + m_b - B) / 2`` is non-negative are proven (an end not evaluated for a pair is bounded from the other end,
     ``m_b >= m_a - B``); an open pair first gets its ends evaluated exactly (that pair only),
     then the interval is halved and its midpoint evaluated for its open pairs. Pairs far from
     contact are thus never evaluated inside a piece, often not even at its ends.
@@ -116,16 +117,14 @@ def certify(
     given = exact & (value < 0)
     if given.any():
         return work.result(False, value, exact, float(s[given.any(axis=1)][0]), True)
-    for k in range(len(s) - 1):
-        work.k = k
-        failed = work.piece(s[k], s[k + 1], rate[k], value[k], exact[k], value[k + 1], exact[k + 1])
-        if failed is not None:
-            return work.result(False, value, exact, *failed)
+    failed = work.knots(s, rate, value, exact) if len(s) > 1 else None
+    if failed is not None:
+        return work.result(False, value, exact, *failed)
     return work.result(True, value, exact)
 
 
 class _Work:
-    """The evaluations of one certification (``certify`` keeps the loop over pieces)."""
+    """The evaluations of one certification."""
 
     def __init__(
         self,
@@ -156,6 +155,51 @@ class _Work:
         low = float(m[pairs].min())
         self.low = min(self.low, low)
         return low >= 0
+
+    def knots(
+        self, s: np.ndarray, rate: np.ndarray, value: np.ndarray, exact: np.ndarray
+    ) -> tuple[float, bool] | None:
+        """Prove every piece, runs of pieces at once: over the knots ``i`` to ``j`` a pair moves
+        at most its cumulative bound ``B`` (the sum of its pieces'), so margins at the two knots
+        with ``m_i + m_j >= B`` prove the whole run for it. Depth first: an open run gets its end
+        knots evaluated (its open pairs), then splits at its middle knot (bounded from both
+        ends); a single piece is bisected (``piece``). ``value``, ``exact`` ``(K, P)`` are
+        updated in place. None, or ``(s, contact)`` where it failed."""
+        steps = np.diff(s)[:, None] * rate
+        cum = np.vstack([np.zeros((1, rate.shape[1])), np.cumsum(steps, axis=0)])
+        stack = [(0, len(s) - 1)]
+        while stack:
+            i, j = stack.pop()
+            if j == i + 1:
+                self.k = i
+                failed = self.piece(s[i], s[j], rate[i], value[i], exact[i], value[j], exact[j])
+                if failed is not None:
+                    return failed
+                continue
+            B = cum[j] - cum[i]
+            ma, mb = value[i], value[j]
+            np.maximum(ma, mb - B, out=ma)
+            np.maximum(mb, ma - B, out=mb)
+            open_ = ma + mb < B
+            if not open_.any():
+                continue
+            for k, at, m_, e_ in ((i, s[i], ma, exact[i]), (j - 1, s[j], mb, exact[j])):
+                need = np.flatnonzero(open_ & ~e_)
+                if len(need):
+                    if self.count >= self.budget:
+                        return s[i], False
+                    self.k = k
+                    if not self.evaluate(at, m_, e_, need):
+                        return at, True
+            open_ = ma + mb < B
+            if not open_.any():
+                continue
+            m = (i + j) // 2
+            np.maximum(value[m], np.maximum(ma - (cum[m] - cum[i]), mb - (cum[j] - cum[m])),
+                       out=value[m])  # fmt: skip
+            stack.append((m, j))
+            stack.append((i, m))
+        return None
 
     def piece(
         self,

@@ -7,7 +7,7 @@ joint segment to a goal is tried first (``planner.name == "direct"``); else the 
 (``core.motion.sampler``: OMPL's RRT-Connect, its tree edges certified) searches for
 ``time_limit`` seconds, its path is shortened (``core.motion.shorten``) and smoothed
 (``core.motion.smooth``), each result certified. The corners are then rounded by circular blends
-(``core.motion.path.BlendedPath``), each blend certified by its corner's margins (``blend``).
+(``core.joint.blended_path.BlendedPath``), each blend certified by its corner's margins (``blend``).
 
 ``plan_motion`` is the whole request: start and goals checked before any search (``Collision`` at
 ``start`` or ``goal`` with the pair; a goal pose whose IK solutions all collide is
@@ -18,47 +18,34 @@ and sampling. No path within the time limit is ``NoPathFound`` with the planner'
 
 from __future__ import annotations
 
-import itertools
 import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.collisions import ClearanceReport, checked
-from core.errors import Collision, InputError, NoPathFound
+from core.clearance import Clearance
+from core.collisions import ClearanceReport, End, check_ends, checked, end_collision
+from core.errors import InputError, NoPathFound
+from core.joint.blended_path import BlendedPath
 from core.limits import JointLimits
 from core.motion.certify import Certifier
 from core.motion.clearance import GroupClearance
 from core.motion.goals import Goals, clear_goals
-from core.motion.path import BlendedPath
+from core.motion.repair import SEARCH_MARGIN, SEARCH_RESOLUTION, Repair, reduced
 from core.motion.sample import certified_samples, stop_and_go_samples
 from core.motion.sampler import RRTConnect, Sampler, SearchProblem
 from core.motion.shorten import path_length, shorten
 from core.motion.smooth import smooth
 from core.motion.timing import TIMINGS
+from core.timing.path_constraints import PathLimits
 from core.trajectory import MAX_POINTS, Trajectory
 
 DEFAULT_SAMPLER: Sampler = RRTConnect()
 """The sampling planner."""
-SEARCH_RESOLUTION = 0.15
-"""[rad] Step of the lazy search's segment checks (its path is certified afterwards)."""
 SEARCH_EDGE = 0.5
 """[rad] Longest tree edge of the search (measured on the MBM Panda problems: OMPL's default, a
 fifth of the joint box's diagonal, 2.6 rad for the Panda, took 8x longer on the cage problems)."""
-SEARCH_MARGIN = 0.0
-"""[m] Extra clearance the lazy search asks of the configurations it checks."""
-REPAIR_EDGE = 0.5
-"""[rad] Longest tree edge of a repair search (its edges certified as they grow: shorter edges
-are cheaper to certify than they cost in extra tree states, on the MBM Panda problems)."""
-REPAIR_QUESTIONS = 3000
-"""Most questions (configurations and certified segments) of one repair search: a segment that
-cannot be repaired within them sends the search back to a fresh start (a count, not a time, so the
-answer does not depend on the machine's speed)."""
-REPAIR_DEPTH = 2
-"""Levels of finer lazy searches a segment's repair tries before a certified search."""
-REPAIR_REFINE = 3.0
-"""Each level of repair checks segments this many times more finely."""
 MAX_ATTEMPTS = 8
 """Lazy searches tried (seeds derived from the request's) before the time runs out."""
 MAX_STATES = 100_000
@@ -128,7 +115,8 @@ def find_path(
     q_start = np.asarray(q_start, dtype=float)
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
     for i, q_goal in enumerate(goals):
-        if certifier.path(np.vstack([q_start, q_goal])).ok:
+        direct = np.vstack([q_start, q_goal])
+        if certifier.probably_clear(direct) and certifier.path(direct).ok:
             ms = (time.perf_counter() - started) * 1e3
             report = PlannerReport("direct", seed, 1, 2, ms, 0.0, 0.0)
             knots = np.vstack([q_start, q_goal])
@@ -148,8 +136,8 @@ def find_path(
         found = sampler.search(lazy)
         iterations, states = iterations + found.iterations, states + found.states
         if found.path is not None:
-            search = _Search(certifier, lower, upper, sampler, end)
-            path = _repair(search, found.path, _seed(seed, attempt))
+            search = Repair(certifier, lower, upper, sampler, end)
+            path = reduced(search, found.path, _seed(seed, attempt))
             if path is not None:
                 break
     search_ms = (time.perf_counter() - started) * 1e3
@@ -179,62 +167,6 @@ def find_path(
 def _seed(seed: int, attempt: int) -> int:
     """The seed of a request's ``attempt``-th search (the first: the request's own)."""
     return int(seed) + attempt * 1_000_003
-
-
-@dataclass(frozen=True)
-class _Search:
-    """What every search of one ``find_path`` shares."""
-
-    certifier: Certifier
-    lower: np.ndarray
-    upper: np.ndarray
-    sampler: Sampler
-    end: float
-
-    def run(
-        self, a: np.ndarray, b: np.ndarray, seed: int, resolution: float | None
-    ) -> np.ndarray | None:
-        """A search from ``a`` to ``b``: lazy at ``resolution`` (its segments to be certified), or
-        with every tree edge certified (``resolution`` None); at most ``REPAIR_QUESTIONS``."""
-        left = self.end - time.perf_counter()
-        if left <= 0:
-            return None
-        c = self.certifier
-        lazy = resolution is not None
-        found = self.sampler.search(
-            SearchProblem(
-                a, b[None], self.lower, self.upper,
-                (lambda q: c.state_clear(q, SEARCH_MARGIN)) if lazy else c.state_ok,
-                None if lazy else c.edge_ok, seed, left, REPAIR_QUESTIONS,
-                resolution or SEARCH_RESOLUTION, REPAIR_EDGE,
-            )
-        )  # fmt: skip
-        return found.path
-
-
-def _repair(search: _Search, path: np.ndarray, seed: int, depth: int = 0) -> np.ndarray | None:
-    """``path`` with every segment certified. A segment that is not is replaced by the path of a
-    lazy search between its ends at a finer resolution (``SEARCH_RESOLUTION`` /
-    ``REPAIR_REFINE`` per level, repaired in turn, ``REPAIR_DEPTH`` levels), and when that finds
-    nothing new, of a search whose tree edges are certified as they grow. None when a segment
-    cannot be repaired within ``REPAIR_QUESTIONS`` per search (or before the time limit)."""
-    out = [path[:1]]
-    for a, b in itertools.pairwise(path):
-        if search.certifier.path(np.vstack([a, b])).ok:
-            out.append(b[None])
-            continue
-        fixed = None
-        if depth < REPAIR_DEPTH:
-            finer = SEARCH_RESOLUTION / REPAIR_REFINE ** (depth + 1)
-            detour = search.run(a, b, seed, finer)
-            if detour is not None and len(detour) > 2:
-                fixed = _repair(search, detour, seed, depth + 1)
-        if fixed is None:
-            fixed = search.run(a, b, seed, None)
-        if fixed is None:
-            return None
-        out.append(fixed[1:])
-    return np.vstack(out)
 
 
 def blend(certifier: Certifier, knots: np.ndarray) -> BlendedPath:
@@ -278,6 +210,9 @@ class MotionTask:
         max_points: Most returned points.
         joint_names: One per joint.
         deadline: The request's wall-time budget.
+        path_limits: What ``time_optimal`` keeps along the path (``core.timing.path_constraints``:
+            joint velocity and acceleration, effort), built by the route; default: the velocity
+            and acceleration of ``limits``.
     """
 
     q_start: np.ndarray
@@ -291,6 +226,7 @@ class MotionTask:
     max_points: int = MAX_POINTS
     joint_names: tuple[str, ...] = ()
     deadline: Deadline = NO_DEADLINE
+    path_limits: PathLimits | None = None
 
 
 @dataclass(frozen=True)
@@ -321,21 +257,23 @@ class MotionResult:
     clearance: ClearanceReport | None = None
 
 
-def check_ends(clearance: GroupClearance, certifier: Certifier, task: MotionTask) -> Goals:
-    """``Collision`` at the start or at a given goal that is not clear (the closest pair);
-    the clear candidates of a goal pose (``Unreachable`` when none is)."""
-    for which, q in (("start", task.q_start), *(("goal", g) for g in task.goals.positions)):
-        if which == "goal" and task.goals.from_pose:
-            break
-        if not certifier.state_ok(q):
-            (a, b), d, thr = clearance.closest_pair(q)
-            raise Collision(
-                f"the {which} configuration is in collision: {a} and {b} are {d:.4f} m apart "
-                f"(clearance {thr:g} m)",
-                field=(which, "positions"),
-                extra={"time_from_start": 0.0 if which == "start" else None, "links": [a, b],
-                       "distance": d, "at": which},
-            )  # fmt: skip
+def clear_ends(
+    task: MotionTask, clearance: GroupClearance, certifier: Certifier, check: Clearance | None
+) -> Goals:
+    """The start and a goal given as joints through the pipeline's check (``check``:
+    ``core.collisions.check_ends``, ``Collision`` with ``at``, the pair and the allowed-collisions
+    hint); one within ``CERTIFY_MARGIN`` of a threshold, which no certified motion can leave or
+    reach, is answered the same way. A goal pose: its clear IK solutions (``clear_goals``:
+    ``Unreachable`` listing each label and its pair when none is)."""
+    ends = [End("start", task.q_start, 0.0)]
+    if not task.goals.from_pose:
+        ends += [End("goal", q) for q in task.goals.positions]
+    check_ends(check, tuple(ends))
+    for end in ends:
+        if check is not None and not certifier.state_ok(np.asarray(end.q)):
+            margin = check.distances(np.asarray(end.q)[None])[0] - check.threshold
+            pair = int(np.argmin(margin))
+            raise end_collision(check, end, pair, float(margin[pair]))
     if not task.goals.from_pose:
         return task.goals
     clear = np.array([certifier.state_ok(q) for q in task.goals.positions])
@@ -343,9 +281,16 @@ def check_ends(clearance: GroupClearance, certifier: Certifier, task: MotionTask
 
 
 def plan_motion(
-    task: MotionTask, clearance: GroupClearance, sampler: Sampler = DEFAULT_SAMPLER
+    task: MotionTask,
+    clearance: GroupClearance,
+    sampler: Sampler = DEFAULT_SAMPLER,
+    check: Clearance | None = None,
 ) -> MotionResult:
-    """The timed collision-free motion of ``task`` (module docstring)."""
+    """The timed collision-free motion of ``task`` (module docstring). ``clearance`` is what the
+    planner asks, and the usual continuous check of the returned motion runs on it
+    (``core.collisions.checked``: its ``check_path`` is the request's own check); ``check`` is the
+    request's collision object, which answers for the ends with its real pair names
+    (``core.collisions.check_ends``; default: ``clearance`` itself, when it has pairs)."""
     lim = task.limits
     if task.timing not in TIMINGS:
         raise InputError(f"timing must be one of {', '.join(TIMINGS)}", field=("timing",))
@@ -355,7 +300,10 @@ def plan_motion(
         raise InputError(
             "jerk_limited needs jerk limits (the robot has none)", field=("limits", "jerk")
         )
-    goals = check_ends(clearance, Certifier(clearance), task)
+    if check is None and len(clearance.pair_names):
+        check = clearance
+    certifier = Certifier(clearance)
+    goals = clear_ends(task, clearance, certifier, check)
     found = find_path(
         clearance, task.q_start, goals.positions, lim.position[:, 0], lim.position[:, 1],
         seed=task.seed, time_limit=task.max_planning_time, sampler=sampler, deadline=task.deadline,
@@ -371,10 +319,13 @@ def plan_motion(
         trajectory = stop_and_go_samples(waypoints, lim, *sampling)
         length = path_length(waypoints)
     else:
-        trajectory, path = certified_samples(Certifier(clearance), found.path, lim, *sampling)
+        limits = task.path_limits or PathLimits(lim.velocity, lim.acceleration)
+        trajectory, path = certified_samples(
+            certifier, found.path, limits, *sampling, deadline=task.deadline
+        )
         waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
-    report = checked(trajectory, clearance) if len(clearance.pair_names) else None
+    report = checked(trajectory, clearance if len(clearance.pair_names) else None)
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,
         found.planner, q_goal, goals.labels[found.goal], task.timing, report,

@@ -1,21 +1,17 @@
-"""Timing a collision-free motion's geometric path: s(t) along it, sampled into joint motion.
+"""Timing a collision-free motion's geometric path: the one place the timing law is chosen.
 
-``PathMotion`` samples q(t) = path(s(t)) with the exact derivatives q' = q_s s' and
-q'' = q_s s'' + q_ss s'^2 for any ``core.timing.joint_path.JointPath`` and any s(t) profile: the
-timing law is the one line of ``time_path``, meant to become the time-optimal law of
-``core.timing.topp`` once it exists. Until then ``grid_timing`` is the phase-plane law of
-``core.timing.speed_limited.GridTiming`` with caps that make every joint limit hold exactly on a
-``BlendedPath``: on each piece |q_s,j| <= v_j (``speed_bounds``) and |q_ss,j| <= k_j
-(``curvature_bounds``, arcs only); the speed cap is ``min_j vmax_j / v_j``, on arcs also
-``sqrt(min_j amax_j / (2 k_j))`` (the centripetal part takes at most half of each acceleration
-limit), and |s''| <= ``min_j amax_j / v_j`` on lines, half that on arcs. The grid holds every
-breakpoint and s'^2 is linear in s on each grid interval, so the caps hold between grid points too.
-At a sharp corner (``BlendedPath.stops``) the cap is 0: the motion comes to rest there.
+``time_optimal`` (``time_path``): the blended path (``core.joint.blended_path.BlendedPath``) timed
+by the time-optimal law of ``core.timing.topp`` under ``PathLimits`` (joint velocity and
+acceleration; effort when the route gives it): the shortest rest-to-rest motion whose limits hold at
+every instant, not only at grid points. Its answer (``TimeOptimal``) samples q(s(t)) with the exact
+derivatives, has s'' constant between its ``switch_times``, and stops at the path's sharp corners
+(dq/ds jumps there).
 
-``jerk_limited`` keeps jerk limits: the straight segments through the knots, each a rest-to-rest
-S-curve (``core.timing.s_curve.SCurveTiming``, Ruckig) along its own line, the joints' velocity,
-acceleration and jerk limits divided by the segment's direction components; the path is exactly
-the polyline that was certified.
+``jerk_limited`` (``StopAndGo``) keeps jerk limits: the straight segments through the knots, each a
+rest-to-rest S-curve (``core.timing.s_curve.SCurveTiming``, Ruckig) along its own line, the joints'
+velocity, acceleration and jerk limits divided by the segment's direction components; the path is
+exactly the polyline that was certified, and the acceleration is continuous (linear between its
+switch times).
 """
 
 from __future__ import annotations
@@ -24,103 +20,36 @@ from typing import Protocol
 
 import numpy as np
 
-from core.motion.path import BlendedPath
+from core.budget import NO_DEADLINE, Deadline
+from core.joint.blended_path import BlendedPath
+from core.timing.path_constraints import PathLimits
 from core.timing.s_curve import SCurveTiming
-from core.timing.speed_limited import GridTiming
+from core.timing.topp import TimeOptimal, time_optimal
 
 TIMINGS = ("time_optimal", "jerk_limited")
 """The timings a collision-free motion takes (``time_path``; ``StopAndGo``)."""
-GRID_SPACING = 0.01
-"""[rad] Longest interval of the timing grid along the path."""
-MAX_GRID = 20_000
-"""Most grid points (the spacing grows on long paths)."""
-
-
-class PathLaw(Protocol):
-    """s(t) from 0 to ``length`` of a path at rest at both ends; ``time_at`` inverts it."""
-
-    duration: float
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...
-
-    def time_at(self, s: np.ndarray) -> np.ndarray: ...
 
 
 class Motion(Protocol):
-    """A timed joint motion: ``duration`` [s], ``sample(times)`` -> q, q', q'', and the instants
-    [s] where it stops at a corner (``stops``)."""
+    """A timed joint motion from rest to rest: ``duration`` [s], ``switch_times`` ``(M,)`` [s]
+    (0 and ``duration`` included: where the acceleration jumps or kinks), ``sample(times)`` -> q,
+    q', q''."""
 
     duration: float
+    switch_times: np.ndarray
 
     def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
-    def stops(self) -> np.ndarray: ...
 
-
-class PathMotion:
-    """Joint motion along ``path`` timed by ``law``: ``sample(times)`` -> q, q', q''."""
-
-    def __init__(self, path: BlendedPath, law: PathLaw) -> None:
-        self.path, self.law = path, law
-        self.duration = float(law.duration)
-
-    def stops(self) -> np.ndarray:
-        return np.asarray(self.law.time_at(self.path.stops()), dtype=float)
-
-    def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        s, sd, sdd = (np.asarray(self.law(times, k), dtype=float) for k in range(3))
-        q_s = self.path(s, 1)
-        return (
-            self.path(s),
-            q_s * sd[:, None],
-            q_s * sdd[:, None] + self.path(s, 2) * (sd**2)[:, None],
-        )
-
-
-class _Scaled:
-    """A law on u in [0, 1] stretched to s = length u."""
-
-    def __init__(self, law: GridTiming, length: float) -> None:
-        self.law, self.length = law, float(length)
-        self.duration = float(law.duration)
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray:
-        return self.length * np.asarray(self.law(t, order), dtype=float)
-
-    def time_at(self, s: np.ndarray) -> np.ndarray:
-        return self.law.time_at(np.asarray(s, dtype=float) / self.length)
-
-
-def grid_timing(path: BlendedPath, velocity: np.ndarray, acceleration: np.ndarray) -> PathLaw:
-    """The fastest s(t) under the exact joint velocity/acceleration caps of ``path`` (above)."""
-    L = path.length
-    starts = path.breakpoints()
-    speed, curv = path.speed_bounds(), path.curvature_bounds()
-    arc = curv.max(axis=1) > 0
-    with np.errstate(divide="ignore"):
-        v_cap = np.min(np.where(speed > 0, velocity / speed, np.inf), axis=1)
-        a_cap = np.min(np.where(speed > 0, acceleration / speed, np.inf), axis=1)
-        c_cap = np.sqrt(np.min(np.where(curv > 0, acceleration / (2 * curv), np.inf), axis=1))
-    v_cap = np.minimum(v_cap, c_cap)
-    a_cap = np.where(arc, a_cap / 2, a_cap)
-    spacing = max(GRID_SPACING, L / MAX_GRID)
-    grid, piece = [np.zeros(1)], [np.zeros(0, dtype=int)]
-    for k in range(len(starts) - 1):
-        n = max(int(np.ceil((starts[k + 1] - starts[k]) / spacing)), 1)
-        grid.append(np.linspace(starts[k], starts[k + 1], n + 1)[1:])
-        piece.append(np.full(n, k))
-    s, owner = np.concatenate(grid), np.concatenate(piece)  # owner: piece of each interval
-    cap = np.minimum(np.r_[v_cap[owner], np.inf], np.r_[np.inf, v_cap[owner]])
-    stops = path.stops()
-    if len(stops):  # sharp corners: at rest there (they are breakpoints, so on the grid)
-        cap[np.clip(np.searchsorted(s, stops - 1e-12), 0, len(s) - 1)] = 0.0
-    a = np.where(np.isfinite(a_cap[owner]), a_cap[owner], 1e12)
-    return _Scaled(GridTiming(s / L, cap / L, a / L), L)
-
-
-def time_path(path: BlendedPath, velocity: np.ndarray, acceleration: np.ndarray) -> PathMotion:
-    """The timed motion along ``path`` (the one place the timing law is chosen)."""
-    return PathMotion(path, grid_timing(path, velocity, acceleration))
+def time_path(
+    path: BlendedPath,
+    limits: PathLimits,
+    *,
+    joint_names: tuple[str, ...] = (),
+    deadline: Deadline = NO_DEADLINE,
+) -> TimeOptimal:
+    """The time-optimal motion along ``path`` under ``limits`` (``core.timing.topp``)."""
+    return time_optimal(path, limits, joint_names=joint_names, deadline=deadline)
 
 
 class StopAndGo:
@@ -144,9 +73,8 @@ class StopAndGo:
                                           max_jerk=bound[2]))  # fmt: skip
         self.starts = np.concatenate([[0.0], np.cumsum([law.duration for law in self.laws])])
         self.duration = float(self.starts[-1])
-
-    def stops(self) -> np.ndarray:
-        return self.starts[1:-1].copy()
+        inner = [a + law.switch_times() for a, law in zip(self.starts[:-1], self.laws, strict=True)]
+        self.switch_times = np.unique(np.concatenate([self.starts, *inner]))
 
     def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         times = np.asarray(times, dtype=float)

@@ -10,7 +10,7 @@ method when the checker is built:
 * ``SOLID_HALFSPACE``: a box's or a cylinder's support point along the halfspace normal.
 * ``SDF``: a capsule (or sphere) against a box or a cylinder: the minimum of the solid's signed
   distance function along the segment, which is convex along it (golden-section search), minus the
-  radius.
+  radius; for a sphere, the signed distance function at its centre minus the radius (closed form).
 * ``COAL``: a box or a cylinder against a box or a cylinder: coal's GJK/EPA, one call per entry
   (``coal.distance``, about 5 us).
 
@@ -333,11 +333,16 @@ class PairDistances:
             kind[f], dims[f] = g.kind[i[f]], g.dims[i[f]]
         al = np.einsum("eji,ej->ei", R, a - t)  # R^T (a - t)
         bl = np.einsum("eji,ej->ei", R, b - t)
+        point = np.all(a == b, axis=1)  # a sphere: the solid's sdf at its centre, closed form
         for solid in (BOX, CYLINDER):
-            m = kind == solid
-            if not m.any():
-                continue
-            out[m] = segment_sdf_min(al[m], bl[m], _solid_sdf(solid, dims[m]))
+            for m in (
+                np.flatnonzero((kind == solid) & point),
+                np.flatnonzero((kind == solid) & ~point),
+            ):
+                if not len(m):
+                    continue
+                sdf = _solid_sdf(solid, dims[m])
+                out[m] = sdf(al[m]) if point[m[0]] else segment_sdf_min(al[m], bl[m], sdf)
         return out - r
 
     def _coal(self, Rw: np.ndarray, pw: np.ndarray, c: np.ndarray, p: np.ndarray) -> np.ndarray:

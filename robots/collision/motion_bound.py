@@ -56,16 +56,21 @@ def motion_weights(
 ) -> np.ndarray:
     """``(P, nq)``: pair ``p``'s distance changes by at most ``W[p] @ |dq|`` [m] over a linear joint
     step ``dq`` (obstacle pairs first, then self pairs, as the checker orders them)."""
-    lever = levers(joints, geometry, position_limits)
-    nq = len(position_limits)
-    W = np.zeros((len(obs_pairs) + len(self_pairs), nq))
-    for p, (i, _) in enumerate(obs_pairs):
-        np.add.at(W[p], joints.q_index, lever[:, i])
-    off = len(obs_pairs)
-    for p, (i, j) in enumerate(self_pairs):
-        anc_i = ancestors(joints, int(geometry.joints[i]))
-        anc_j = ancestors(joints, int(geometry.joints[j]))
-        for k in anc_i ^ anc_j:
-            shape = i if k in anc_i else j
-            W[off + p, joints.q_index[k - 1]] += lever[k - 1, shape]
+    lever = levers(joints, geometry, position_limits).T  # (G, J): shape, joint
+    J, nq = len(joints.parents), len(position_limits)
+    chain = np.zeros((len(geometry.links), J), dtype=bool)  # shape moved by joint
+    for s in range(len(geometry.links)):
+        for k in ancestors(joints, int(geometry.joints[s])):
+            chain[s, k - 1] = True
+    first = np.array([i for i, _ in obs_pairs] + [i for i, _ in self_pairs], dtype=int)
+    second = np.array([-1] * len(obs_pairs) + [j for _, j in self_pairs], dtype=int)
+    rows = np.where(chain[first], lever[first], 0.0)  # obstacle pairs: every joint moving it
+    mine = chain[first] & ~np.where(second[:, None] >= 0, chain[second], False)
+    theirs = np.where(second[:, None] >= 0, chain[second] & ~chain[first], False)
+    selfs = second >= 0  # joints moving both shapes move them rigidly together: not counted
+    rows[selfs] = np.where(mine[selfs], lever[first[selfs]], 0.0) + np.where(
+        theirs[selfs], lever[second[selfs]], 0.0
+    )
+    W = np.zeros((len(first), nq))
+    np.add.at(W.T, joints.q_index, rows.T)
     return W

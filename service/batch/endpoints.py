@@ -13,8 +13,10 @@ from pydantic import BaseModel
 
 from service.routes.collision import InlineDistanceRequest
 from service.schemas.cartesian import CartesianRequest
+from service.schemas.collision_free import CollisionFreeRequest
 from service.schemas.compare import CompareRequest
 from service.schemas.program import ProgramRequest
+from service.schemas.retime import RetimeRequest
 from service.schemas.robots import InlineFKRequest, InlineIKRequest
 from service.schemas.trajectories import JointTrajectoryRequest, SplineRequest
 
@@ -36,6 +38,10 @@ ENDPOINTS: dict[str, Endpoint] = {
     "trajectories/cartesian": Endpoint("/v1/trajectories/cartesian", CartesianRequest),
     "trajectories/program": Endpoint("/v1/trajectories/program", ProgramRequest),
     "compare": Endpoint("/v1/compare", CompareRequest),
+    "trajectories/retime": Endpoint("/v1/trajectories/retime", RetimeRequest),
+    "trajectories/collision_free": Endpoint(
+        "/v1/trajectories/collision_free", CollisionFreeRequest
+    ),
 }
 """Item ``endpoint`` -> its route (every one takes its robot in the body: no path parameters)."""
 

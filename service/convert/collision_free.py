@@ -16,9 +16,10 @@ from starlette.responses import Response
 
 from core.budget import Deadline
 from core.errors import InputError
-from core.limits import check_positions
+from core.limits import JointLimits, check_positions
 from core.motion.goals import Goals, pose_goals
 from core.motion.plan import MotionResult, MotionTask
+from core.timing.path_constraints import PathLimits
 from robots.model import Robot
 from service.convert.environment import clearance_diagnostics
 from service.convert.joint import joint_limits
@@ -34,8 +35,12 @@ timing, the continuous check, encoding)."""
 def motion_task(
     body: CollisionFreeRequest, robot: Robot, deadline: Deadline, max_points: int, budget_s: float
 ) -> MotionTask:
-    """The core task of a request (start and goal checked against the robot)."""
-    _, names = robot_and_names(body.robot, len(body.start.positions), ("start", "positions"))
+    """The core task of a request (start and goal checked against ``robot``, the request's robot
+    with its ``tool``); the limits ``time_optimal`` keeps along the path (``PathLimits``) built
+    here."""
+    _, names = robot_and_names(
+        body.robot, len(body.start.positions), ("start", "positions"), body.tool
+    )
     limits = joint_limits(body.limits, robot)
     q_start = np.asarray(body.start.positions, dtype=float)
     check_positions(q_start[None], limits, names, field=("start", "positions"))
@@ -78,7 +83,16 @@ def motion_task(
         max_points=max_points,
         joint_names=names,
         deadline=deadline,
+        path_limits=path_limits(limits),
     )
+
+
+def path_limits(limits: JointLimits) -> PathLimits | None:
+    """What ``time_optimal`` keeps along the path: the joint velocity and acceleration limits
+    (None when the robot lacks one: core answers which)."""
+    if limits.velocity is None or limits.acceleration is None:
+        return None
+    return PathLimits(limits.velocity, limits.acceleration)
 
 
 def response(

@@ -16,11 +16,11 @@ from starlette.responses import Response
 from core.budget import Deadline
 from core.motion.clearance import Unobstructed
 from core.motion.plan import plan_motion
-from robots import registry
 from robots.validity import GroupedClearance
 from service import deps
 from service.convert import collision_free as convert
 from service.convert.environment import collision_check, inline_urdf, unchecked_warnings
+from service.convert.robot import resolve_robot
 from service.schemas.collision_free import CollisionFreeRequest
 from service.schemas.common import (
     TIME_FORMAT_QUERY,
@@ -53,11 +53,12 @@ def collision_free_trajectory(
 ) -> Response:
     started = time.perf_counter()
     settings = request.app.state.settings
-    robot = registry.resolve(body.robot)
+    robot = resolve_robot(body.robot, body.tool)
+    assert robot is not None  # the schema requires one
     urdf = inline_urdf(body.robot)
     task = convert.motion_task(body, robot, deadline, settings.max_points, settings.time_budget_s)
     check = collision_check(robot, body.environment, urdf)
     grouped = None if check is None else GroupedClearance(check)
-    result = plan_motion(task, grouped or Unobstructed(robot.dof))
+    result = plan_motion(task, grouped or Unobstructed(robot.dof), check=check)
     warnings = unchecked_warnings(robot, body.environment, urdf)
     return convert.response(result, warnings, started, time_format)

@@ -12,7 +12,15 @@ from typing import Any, Literal, get_args
 from pydantic import Field, model_validator
 
 from core.motion.timing import TIMINGS
-from service.schemas.common import JointPositions, Pose, RobotRef, Sampling, StrictModel
+from service.schemas.common import (
+    TOOL_FIELD,
+    JointPositions,
+    Pose,
+    RobotRef,
+    Sampling,
+    StrictModel,
+    Tool,
+)
 from service.schemas.environment import Environment
 from service.schemas.trajectories import JointLimitsIn
 
@@ -61,6 +69,7 @@ class CollisionFreeRequest(Sampling):
     """``POST /v1/trajectories/collision_free``: a joint motion that keeps the clearance."""
 
     robot: RobotRef = Field(description="A registered robot name or an inline URDF model.")
+    tool: Tool | None = TOOL_FIELD
     start: CollisionFreeStart = Field(description="Where the motion starts (at rest).")
     goal: CollisionFreeGoal = Field(description="Where it ends (at rest).")
     environment: Environment | None = Field(

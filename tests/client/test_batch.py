@@ -11,6 +11,7 @@ import pytest
 from trajectory_client import (
     BatchItem,
     FKResult,
+    InvalidRequest,
     NotFound,
     PlanningFailed,
     Trajectory,
@@ -20,7 +21,7 @@ from trajectory_client import (
 
 from bench.batch import ENVIRONMENT, UR5_HOME, joint_moves
 from tests.client.stub import Reply, stub_server
-from tests.client.test_client import JOINT, PLANAR_TASK
+from tests.client.test_client import COLLISION_FREE, JOINT, PLANAR_TASK, RETIME
 
 
 def test_a_batch_streams_typed_results_in_order(service_url: str) -> None:
@@ -46,6 +47,22 @@ def test_a_batch_streams_typed_results_in_order(service_url: str) -> None:
     assert isinstance(results[6].value, FKResult) and results[6].value.pose == fk.pose
     assert stream.summary is not None and stream.summary["items"] == 7
     assert stream.summary["shared"]["collision_model"] == {"built": 1, "reused": 3}
+
+
+def test_retime_and_collision_free_in_a_batch(service_url: str) -> None:
+    items = [("trajectories/retime", RETIME), ("trajectories/collision_free", COLLISION_FREE)]
+    bad = {**COLLISION_FREE, "max_planning_time": 1e9}
+    with TrajectoryClient(service_url) as client:
+        results = list(client.batch([*items, ("trajectories/collision_free", bad)]))
+        alone = [client.retime(RETIME), client.collision_free(COLLISION_FREE)]
+    assert [r.ok for r in results] == [True, True, False]
+    for result, single in zip(results, alone, strict=False):
+        assert isinstance(result.value, Trajectory)
+        assert result.value.positions == single.positions
+        assert result.value.time_from_start == single.time_from_start
+    assert results[1].value.raw["waypoints"] == alone[1].raw["waypoints"]
+    assert isinstance(results[2].error, InvalidRequest)
+    assert results[2].error.body["errors"][0]["loc"] == ["body", "max_planning_time"]
 
 
 def test_defaults_are_sent_once(service_url: str) -> None:

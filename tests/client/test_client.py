@@ -40,6 +40,20 @@ PROGRAM = {
         {"type": "ptp", "goal": {"positions": UR5_HOME}},
     ],
 }  # fmt: skip
+RETIME = {
+    "waypoints": [[0.0, 0.0], [1.0, 0.4], [1.5, -0.3]],
+    "limits": {"velocity": [1.0, 1.0], "acceleration": [2.0, 3.0]},
+    "sample_period": 0.05,
+}
+COLLISION_FREE = {
+    "robot": "ur5",
+    "start": {"positions": UR5_HOME},
+    "goal": {"positions": [1.2, -1.0471975511965976, 1.5707963267948966, -2.0943951023931953,
+                           -1.5707963267948966, 0.0]},
+    "environment": {"obstacles": [{"name": "post", "shape": {"type": "box", "size": [0.1, 0.1, 0.6]},
+                                   "pose": {"position": [-0.3, -0.45, 0.3], "orientation": [0, 0, 0, 1]}}]},
+    "seed": 3,
+}  # fmt: skip
 PLANAR_TASK = {
     "robot": "planar_2r",
     "start": {"positions": [0.3, 1.2]},
@@ -111,6 +125,8 @@ def assert_same_trajectory(plan: Any, answer: dict[str, Any]) -> None:
         ("cartesian", "/v1/trajectories/cartesian", lines(1)[0]),
         ("program", "/v1/trajectories/program", PROGRAM),
         ("joint", "/v1/trajectories/joint", joint_moves(1)[0]),
+        ("retime", "/v1/trajectories/retime", RETIME),
+        ("collision_free", "/v1/trajectories/collision_free", COLLISION_FREE),
     ],
 )
 def test_trajectories_as_lists_and_as_numpy(
@@ -128,6 +144,9 @@ def test_trajectories_as_lists_and_as_numpy(
     assert as_lists.points() == answer["points"]
     if method == "program":
         assert as_lists.raw["segments"] == answer["segments"]
+    if method == "collision_free":
+        assert as_lists.raw["waypoints"] == answer["waypoints"]
+        assert as_lists.diagnostics["planner"]["seed"] == 3
 
 
 def test_compare(client: TrajectoryClient) -> None:

@@ -264,7 +264,11 @@ def test_without_environment_the_direct_segment(client) -> None:
     }
     data = client.post(URL, json=body).json()
     assert data["diagnostics"]["planner"]["name"] == "direct"
-    assert len(data["points"]) == 50 and data["waypoints"] == [UR5_HOME, goal]
+    assert data["waypoints"] == [UR5_HOME, goal]
+    # the 50 samples asked, plus a pair of points around each switch of the time-optimal law
+    times = np.array([p["time_from_start"] for p in data["points"]])
+    asked = np.linspace(0.0, times[-1], 50)
+    assert len(times) >= 50 and np.abs(times[:, None] - asked).min(axis=0).max() <= 1e-6
 
 
 def test_jerk_limited_keeps_the_jerk_limits(client) -> None:
@@ -298,3 +302,53 @@ def test_nothing_to_collide_with_is_the_direct_segment(client) -> None:
         and same["diagnostics"]["path_length_ratio"] == 1.0
     )
     assert all(p["positions"] == UR5_HOME for p in same["points"])
+
+
+def test_a_start_at_the_base_in_collision_names_the_allowed_pair(client, monkeypatch) -> None:
+    """The pipeline's one check (``core.collisions.check_ends``): 422 ``collision`` at the start
+    with the pair and, for a link at the base, the allowed_collisions hint; nothing searched."""
+
+    def never(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("searched although the start is in collision")
+
+    monkeypatch.setattr("core.motion.plan.find_path", never)
+    table = {"name": "table", "shape": {"type": "halfspace", "normal": [0, 0, 1], "offset": 0.02}}
+    goal = [0.5, -1.2, 1.8, -2.2, -1.3, 0.4]
+    body = {"robot": "ur5", "start": {"positions": UR5_HOME}, "goal": {"positions": goal},
+            "environment": {"obstacles": [table]}}  # fmt: skip
+    err = problem(client.post(URL, json=body), 422, "collision")
+    assert err["at"] == "start" and err["links"] == ["shoulder_link", "table"]
+    assert err["distance"] < 0 and err["time_from_start"] == 0.0
+    assert 'environment.allowed_collisions, e.g. [["shoulder_link", "table"]]' in err["detail"]
+
+
+def test_a_tool_offset_moves_the_goal_pose_to_the_tool_frame(client) -> None:
+    robot = registry.get("ur5")
+    tool = {"position": [0.0, 0.0, 0.12], "orientation": [0.0, 0.0, 0.38268343, 0.92387953]}
+    T_tool = pose_matrix(tool)
+    q_goal = np.array([0.6, -1.4, 1.9, -2.0, -1.4, 0.7])
+    T_goal = robot.fk(q_goal) @ T_tool  # the tool frame's pose at q_goal
+    body = {"robot": "ur5", "tool": tool, "start": {"positions": UR5_HOME},
+            "goal": {"pose": pose_body(T_goal)}, "environment": ball_at(UR5_HOME, 0.02)}  # fmt: skip
+    body["environment"]["obstacles"][0]["pose"]["position"][2] += 0.3  # out of the way
+    answer = client.post(URL, json=body)
+    assert answer.status_code == 200, answer.text
+    q_end = np.array(answer.json()["points"][-1]["positions"])
+    np.testing.assert_allclose(robot.fk(q_end) @ T_tool, T_goal, atol=1e-9)
+    without = client.post(URL, json={k: v for k, v in body.items() if k != "tool"})
+    if without.status_code == 200:  # the tip frame at T_goal: another configuration
+        q_tip = np.array(without.json()["points"][-1]["positions"])
+        np.testing.assert_allclose(robot.fk(q_tip), T_goal, atol=1e-9)
+    bad = client.post(
+        URL, json={**body, "tool": {"position": [0, 0, 99], "orientation": [0, 0, 0, 1]}}
+    )
+    assert problem(bad, 422, "validation")["errors"][0]["loc"][:2] == ["body", "tool"]
+
+
+def pose_matrix(pose: dict[str, Any]) -> np.ndarray:
+    """``(4, 4)`` of a position and an x, y, z, w quaternion (pinocchio's quaternion type)."""
+    x, y, z, w = pose["orientation"]
+    T = np.eye(4)
+    T[:3, :3] = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()
+    T[:3, 3] = pose["position"]
+    return T

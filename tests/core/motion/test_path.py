@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.motion.path import BlendedPath
+from core.joint.blended_path import BlendedPath
 from core.timing.joint_path import JointPath
 
 KNOTS = np.array(

@@ -115,3 +115,19 @@ def test_find_path_is_certified_from_start_to_goal() -> None:
     d = np.linalg.norm(found.path(s)[:, None] - BLOCK.centers[None], axis=2) - BLOCK.radii
     assert (d - BLOCK.threshold).min() >= CERTIFY_MARGIN - 1e-9
     assert found.planner.simplify_time_ms >= 0 and found.planner.states > 0
+
+
+@pytest.mark.parametrize("timing", ["time_optimal", "jerk_limited"])
+def test_returned_derivatives_are_exact(timing: str) -> None:
+    """Integrating the returned accelerations between consecutive points (trapezoid rule) gives
+    the returned velocities to 1e-6 (sampled finely, as the retime test does: on a blend the
+    acceleration is not linear between points); every switch of the timing is held by the points
+    (a jump of the acceleration between two points is integrated wrongly by up to ~1e-3)."""
+    traj = plan_motion(task(timing=timing, sample_period=0.001), BLOCK).trajectory
+    t, q, v, a = traj.times, traj.positions, traj.velocities, traj.accelerations
+    dt = np.diff(t)[:, None]
+    np.testing.assert_allclose(np.diff(v, axis=0), dt * (a[1:] + a[:-1]) / 2, atol=1e-6)
+    # and the velocities are those of the positions (central differences around each point)
+    inner = (dt[:-1, 0] > 1e-4) & (dt[1:, 0] > 1e-4)
+    fd = (q[2:] - q[:-2]) / (t[2:] - t[:-2])[:, None]
+    np.testing.assert_allclose(fd[inner], v[1:-1][inner], atol=5e-3)

@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.motion.path import BlendedPath
+from core.joint.blended_path import BlendedPath
 from core.motion.timing import StopAndGo, time_path
+from core.timing.path_constraints import PathLimits
 
 KNOTS = np.array(
     [[0.0, 0.0, 0.0], [1.0, 0.0, 0.2], [1.2, 0.9, 0.1], [0.3, 1.1, -0.4], [0.2, 1.5, 0.0]]
@@ -25,7 +26,7 @@ def dense(motion, n: int = 40001):
 @pytest.mark.parametrize("deviation", [0.0, 0.05, 0.3])
 def test_blended_motion_keeps_the_limits(deviation: float) -> None:
     path = BlendedPath(KNOTS, np.full(len(KNOTS), deviation))
-    motion = time_path(path, V, A)
+    motion = time_path(path, PathLimits(V, A))
     t, q, qd, qdd = dense(motion)
     assert np.all(np.abs(qd) <= V * (1 + 1e-9))
     assert np.all(np.abs(qdd) <= A * (1 + 1e-9))
