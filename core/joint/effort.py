@@ -67,6 +67,10 @@ class TimeScaled:
         p = self.base.peaks()
         return Peaks(p.velocity / self.k, p.acceleration / self.k**2, p.jerk / self.k**3)
 
+    def switch_times(self) -> np.ndarray:
+        """The profile's switch times [s], slowed."""
+        return self.k * np.asarray(self.base.switch_times(), dtype=float)
+
 
 def _torques(
     dynamics: Dynamics, motion: Sampled, t: np.ndarray, gravity: np.ndarray

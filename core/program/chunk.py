@@ -3,8 +3,10 @@
 ``ChunkPath`` is the geometric joint path of one rest-to-rest stretch (segments joined by blends):
 q(s) through its dense joint samples, s in [0, 1] its normalized joint-space arc length (so dq/ds
 is continuous across pieces that meet with a continuous tangent), a C2 cubic spline
-(``core.program.geometry.smooth``). It implements ``core.timing.joint_path.JointPath``: any
-path timing law of ``core.timing.TIMING_LAWS`` times it.
+(``core.program.geometry.smooth``). It implements ``core.timing.joint_path.JoinedPath``: any
+path timing law of ``core.timing.TIMING_LAWS`` times it; its breakpoints are the junctions of its
+pieces (where the limits may change: each segment has its own scales and tool limits), its joins
+the spline's knots (where d3q/ds3 steps).
 
 ``ChunkTiming`` is the chunk timed by such a law: ``sample(t)`` gives q, q', q'' as the exact
 derivatives of q(s(t)) (``core.timing.path_profile.joint_motion``), ``switch_times`` where a
@@ -33,11 +35,12 @@ _GOLDEN_STEPS = 30
 
 class ChunkPath:
     """q(s) for s in [0, 1] through ``q`` ``(K, dof)`` (at least two distinct samples): see the
-    module docstring. ``knots``: the samples' s ``(K,)``."""
+    module docstring. ``knots``: the samples' s ``(K,)``; ``junctions``: indices of the samples
+    where one piece ends and the next begins (default none)."""
 
     length = 1.0
 
-    def __init__(self, q: np.ndarray) -> None:
+    def __init__(self, q: np.ndarray, junctions: np.ndarray | None = None) -> None:
         q = np.asarray(q, dtype=float)
         step = np.linalg.norm(np.diff(q, axis=0), axis=1)
         lam = np.concatenate([[0.0], np.cumsum(step)])
@@ -45,6 +48,8 @@ class ChunkPath:
         self.samples = q
         self.dof = int(q.shape[1])
         self._spline = smooth_spline(self.knots, q)
+        inner = np.zeros(0) if junctions is None else self.knots[np.asarray(junctions, dtype=int)]
+        self._breaks = np.unique(np.concatenate([[0.0, 1.0], inner]))
 
     def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
         """q (order 0) or d^n q / ds^n (order n <= 3) at ``s`` ``(N,)``: ``(N, dof)``."""
@@ -52,6 +57,11 @@ class ChunkPath:
         return np.asarray(self._spline(s, order), dtype=float)
 
     def breakpoints(self) -> np.ndarray:
+        """Both ends and the pieces' junctions: a timing grid holds them, so each grid interval
+        lies in one piece (q and its first two derivatives are continuous everywhere)."""
+        return self._breaks.copy()
+
+    def joins(self) -> np.ndarray:
         """The samples' s (the spline's knots: its third derivative steps there)."""
         return self.knots.copy()
 

@@ -21,7 +21,7 @@ from core.joint.profiles import PROFILES
 from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
 from core.program.segments import MAX_SEGMENTS, ProgramTask, ptp_profile
-from core.timing import DEFAULT_LAW, TIMING_LAWS
+from core.timing import DEFAULT_LAW, JOINT_PATH_LAWS, TIMING_LAWS, program_law, speed_profile_law
 
 ZERO_LENGTH = 1e-9
 """A segment moving the tool less than this [m] and [rad] (PTP: joints, [rad]) is skipped."""
@@ -51,6 +51,10 @@ def layout(task: ProgramTask) -> Layout:
     robot, segs = task.robot, task.segments
     if not 1 <= len(segs) <= MAX_SEGMENTS:
         raise InputError(f"give 1 to {MAX_SEGMENTS} segments", field=("segments",))
+    if not program_law(task.timing):
+        raise InputError(
+            f"timing must be one of {', '.join(sorted(JOINT_PATH_LAWS))}", field=("timing",)
+        )
     if segs[-1].blend_radius > 0.0:
         raise InputError(
             "the last segment cannot blend (there is nothing to blend into)",
@@ -104,11 +108,12 @@ def check_segment(task: ProgramTask, i: int) -> None:
     for name in ("velocity_scale", "acceleration_scale"):
         if not 0.0 < getattr(seg, name) <= 1.0:
             raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
-    if seg.speed_profile not in TIMING_LAWS or (
+    if not speed_profile_law(seg.speed_profile) or (
         seg.speed_profile != DEFAULT_LAW and not seg.cartesian
     ):
+        names = ", ".join(k for k in TIMING_LAWS if speed_profile_law(k))
         raise InputError(
-            f"speed_profile must be one of {', '.join(TIMING_LAWS)} (LIN/CIRC segments)",
+            f"speed_profile must be one of {names} (LIN/CIRC segments)",
             field=("segments", i, "speed_profile"),
         )
     tool = ("max_linear_jerk", "max_angular_jerk", "max_linear_acceleration",
