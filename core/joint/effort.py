@@ -9,7 +9,10 @@ exactly between samples (``core.timing.interval_peaks``), and rebuilds the plan 
 (``make(duration)``: a rest-to-rest profile slowed in time, ``TimeScaled``, exact; a plan that
 cannot scale (non-zero end velocities) rebuilt for the duration and stretched further until it
 keeps the limits). ``peak_effort`` measures |tau| per joint on a motion
-at its samples and ``DENSE`` points between consecutive ones. Units: [N m or N], [s].
+at its samples and ``DENSE`` points between consecutive ones. A sampled trajectory (a Cartesian
+plan, a collision-free motion) is held to the limits as the motion its points describe
+(``HermiteMotion``: the quintic through q, q', q'' of consecutive points), slowed uniformly
+(``held_trajectory``, ``slowed``). Units: [N m or N], [s].
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import numpy as np
+from scipy.interpolate import BPoly
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import Infeasible
@@ -25,7 +29,7 @@ from core.joint.durations import MAX_DURATION
 from core.kinematics import DEFAULT_GRAVITY, Dynamics
 from core.timing.interval_peaks import refine_peaks, sampled_peaks
 from core.timing.path_constraints import Effort
-from core.trajectory import Peaks, Profile
+from core.trajectory import Peaks, Profile, Trajectory
 
 CHUNK = 8
 """Dense check: chunks of this many sample intervals (peaks estimated per chunk)."""
@@ -37,6 +41,8 @@ STRETCHES = 20
 """Most rebuilds of a plan that does not scale in time."""
 MARGIN = 1e-10
 """Relative room a stretched plan leaves below the effort limits."""
+TOLERANCE = 1e-9
+"""Relative excess of an effort limit a plan may have before it is slowed (the contract's)."""
 
 
 class Sampled(Protocol):
@@ -89,10 +95,15 @@ def _needed(b: np.ndarray, c: np.ndarray, limit: np.ndarray) -> np.ndarray:
     return np.nan_to_num(need, nan=0.0, posinf=0.0, neginf=0.0)
 
 
-def effort_peak_ratio(motion: Sampled, effort: Effort, names: Sequence[str]) -> float:
+def effort_peak_ratio(
+    motion: Sampled,
+    effort: Effort,
+    names: Sequence[str],
+    where: Callable[[float], float] | None = None,
+) -> float:
     """The largest |tau| / limit over ``motion``, sampled densely and found exactly near the
-    limit. ``Infeasible`` names the joint and ``s`` (share of the
-    duration) where gravity alone exceeds its limit."""
+    limit. ``Infeasible`` names the joint and ``s`` where gravity alone exceeds its limit: the
+    share of the duration there, or ``where`` of it (a path parameter)."""
     n = CHUNK * CHUNKS
     t = np.linspace(0.0, motion.duration, n + 1)
     b, c = _torques(effort.dynamics, motion, t, effort.gravity)
@@ -101,6 +112,7 @@ def effort_peak_ratio(motion: Sampled, effort: Effort, names: Sequence[str]) -> 
     if over.any():
         k, j = (int(v) for v in np.argwhere(over)[0])
         share = float(t[k] / motion.duration)
+        share = share if where is None else float(where(share))
         raise Infeasible(
             f"gravity alone exceeds the effort limit of joint {names[j]} at s={share:.6g}",
             s=share,
@@ -130,9 +142,11 @@ def shortest_for_effort(
     effort: Effort,
     names: Sequence[str],
     deadline: Deadline = NO_DEADLINE,
+    where: Callable[[float], float] | None = None,
 ) -> Sampled:
     """The plan ``make(T)`` with the shortest ``T >= duration`` [s] (the plan's shortest within its
-    kinematic limits) whose torque keeps ``effort`` (rules in the module docstring)."""
+    kinematic limits) whose torque keeps ``effort`` (rules in the module docstring); ``where``
+    as ``effort_peak_ratio``'s."""
     motion = make(duration)
     t = np.linspace(0.0, motion.duration, CHUNK * CHUNKS + 1)
     b, c = _torques(effort.dynamics, motion, t, effort.gravity)
@@ -146,7 +160,7 @@ def shortest_for_effort(
                 field=("limits", "effort"),
             )
         candidate = motion if scale2 == 1.0 else make(stretched)
-        worst = effort_peak_ratio(candidate, effort, names)
+        worst = effort_peak_ratio(candidate, effort, names, where)
         if worst <= 1.0:
             return candidate
         scale2 *= 1.0 + 4.0 * (worst - 1.0) + MARGIN
@@ -168,3 +182,53 @@ def peak_effort(
     t = np.concatenate([times, inner.ravel()])
     q, qd, qdd = motion.sample(t)
     return np.abs(dynamics.inverse_dynamics(q, qd, qdd, gravity)).max(axis=0)
+
+
+class HermiteMotion:
+    """The motion a trajectory's points describe: between consecutive points the quintic through
+    their q, q', q'' (``scipy.interpolate.BPoly.from_derivatives``: the returned values are its
+    exact derivatives), run ``k`` times slower."""
+
+    def __init__(self, trajectory: Trajectory, k: float = 1.0) -> None:
+        tr = trajectory
+        self.trajectory, self.k = tr, float(k)
+        self.duration = float(tr.duration) * self.k
+        data = np.stack([tr.positions, tr.velocities, tr.accelerations], axis=1)
+        self._poly = BPoly.from_derivatives(tr.times, data)
+
+    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        tau = np.clip(np.asarray(t, dtype=float) / self.k, 0.0, self.trajectory.duration)
+        q, qd, qdd = (np.asarray(self._poly(tau, nu), dtype=float) for nu in (0, 1, 2))
+        return q, qd / self.k, qdd / self.k**2
+
+
+def slowed(trajectory: Trajectory, k: float) -> Trajectory:
+    """``trajectory`` run ``k`` (>= 1) times slower: times by k, rates by 1/k^order."""
+    tr = trajectory
+    peaks = None
+    if tr.peaks is not None:
+        p = tr.peaks
+        peaks = Peaks(p.velocity / k, p.acceleration / k**2, p.jerk / k**3)
+    return Trajectory(
+        tr.times * k, tr.positions, tr.velocities / k, tr.accelerations / k**2, tr.joint_names,
+        peaks,
+    )  # fmt: skip
+
+
+def held_trajectory(
+    trajectory: Trajectory,
+    effort: Effort,
+    names: Sequence[str],
+    deadline: Deadline = NO_DEADLINE,
+    where: Callable[[float], float] | None = None,
+) -> float:
+    """The factor k >= 1 by which ``trajectory`` (its ``HermiteMotion``) must run slower for its
+    torque to keep ``effort`` (1.0: it does); ``where`` as ``effort_peak_ratio``'s."""
+    motion = HermiteMotion(trajectory)
+    duration = motion.duration
+    if duration <= 0.0 or effort_peak_ratio(motion, effort, names, where) <= 1.0 + TOLERANCE:
+        return 1.0
+    held = shortest_for_effort(
+        lambda T: HermiteMotion(trajectory, T / duration), duration, effort, names, deadline, where
+    )
+    return float(held.duration) / duration

@@ -27,6 +27,8 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.collisions import ClearanceReport, checked
 from core.errors import Collision, InputError, NoPathFound
+from core.joint.effort import HermiteMotion, held_trajectory, peak_effort, slowed
+from core.kinematics import Dynamics
 from core.limits import JointLimits
 from core.motion.certify import Certifier
 from core.motion.clearance import GroupClearance
@@ -37,6 +39,7 @@ from core.motion.sampler import RRTConnect, Sampler, SearchProblem
 from core.motion.shorten import path_length, shorten
 from core.motion.smooth import smooth
 from core.motion.timing import TIMINGS
+from core.timing.path_constraints import Effort
 from core.trajectory import MAX_POINTS, Trajectory
 
 DEFAULT_SAMPLER: Sampler = RRTConnect()
@@ -278,6 +281,10 @@ class MotionTask:
         max_points: Most returned points.
         joint_names: One per joint.
         deadline: The request's wall-time budget.
+        effort: Effort limits with the robot's dynamics (the timed motion is slowed until its
+            torque keeps them, ``core.joint.effort.held_trajectory``), or None.
+        dynamics: The robot's dynamics, for ``peak_effort`` (None: none known).
+        gravity: Gravity ``(3,)`` [m/s^2] in the base frame for ``peak_effort`` (None: default).
     """
 
     q_start: np.ndarray
@@ -291,6 +298,9 @@ class MotionTask:
     max_points: int = MAX_POINTS
     joint_names: tuple[str, ...] = ()
     deadline: Deadline = NO_DEADLINE
+    effort: Effort | None = None
+    dynamics: Dynamics | None = None
+    gravity: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -308,6 +318,7 @@ class MotionResult:
         timing: The timing used (one of ``TIMINGS``).
         clearance: The usual continuous check of the returned motion (``core.collisions``), None
             when no pair is checked.
+        peak_effort: |tau| [N m or N] per joint over the motion (None without dynamics).
     """
 
     trajectory: Trajectory
@@ -319,6 +330,27 @@ class MotionResult:
     configuration: str | None
     timing: str
     clearance: ClearanceReport | None = None
+    peak_effort: np.ndarray | None = None
+
+
+def held_effort(task: MotionTask, trajectory: Trajectory) -> tuple[Trajectory, np.ndarray | None]:
+    """``trajectory`` slowed until its torque keeps ``task.effort`` (a failure's ``s``: the share
+    of the joint path's length there), and its peak effort (None without dynamics)."""
+    if task.effort is not None and trajectory.duration > 0.0:
+        q = trajectory.positions
+        share = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+        share = share / share[-1] if share[-1] > 0 else share
+        times = trajectory.times
+
+        def where(fraction: float) -> float:
+            return float(np.interp(fraction * times[-1], times, share))
+
+        k = held_trajectory(trajectory, task.effort, task.joint_names, task.deadline, where)
+        trajectory = slowed(trajectory, k) if k > 1.0 else trajectory
+    if task.dynamics is None:
+        return trajectory, None
+    motion = HermiteMotion(trajectory)
+    return trajectory, peak_effort(task.dynamics, motion, trajectory.times, task.gravity)
 
 
 def check_ends(clearance: GroupClearance, certifier: Certifier, task: MotionTask) -> Goals:
@@ -374,8 +406,9 @@ def plan_motion(
         trajectory, path = certified_samples(Certifier(clearance), found.path, lim, *sampling)
         waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
+    trajectory, peak = held_effort(task, trajectory)
     report = checked(trajectory, clearance) if len(clearance.pair_names) else None
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,
-        found.planner, q_goal, goals.labels[found.goal], task.timing, report,
+        found.planner, q_goal, goals.labels[found.goal], task.timing, report, peak,
     )  # fmt: skip

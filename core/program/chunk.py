@@ -6,7 +6,11 @@ is continuous across pieces that meet with a continuous tangent), a C2 cubic spl
 (``core.program.geometry.smooth``). It implements ``core.timing.joint_path.JoinedPath``: any
 path timing law of ``core.timing.TIMING_LAWS`` times it; its breakpoints are the junctions of its
 pieces (where the limits may change: each segment has its own scales and tool limits), its joins
-the spline's knots (where d3q/ds3 steps).
+the spline's knots (where d3q/ds3 steps). With ``reversals``, a sample where the path turns back
+(consecutive steps more than 90 degrees apart: a blend between a line and its reverse goes straight
+down and back up) ends one spline and starts the next, so dq/ds steps there and a law that keeps
+every limit everywhere stops there (``core.timing.path_grid.stops``); one spline through it would
+turn in a loop of micrometres at a crawl.
 
 ``ChunkTiming`` is the chunk timed by such a law: ``sample(t)`` gives q, q', q'' as the exact
 derivatives of q(s(t)) (``core.timing.path_profile.joint_motion``), ``switch_times`` where a
@@ -36,29 +40,49 @@ _GOLDEN_STEPS = 30
 class ChunkPath:
     """q(s) for s in [0, 1] through ``q`` ``(K, dof)`` (at least two distinct samples): see the
     module docstring. ``knots``: the samples' s ``(K,)``; ``junctions``: indices of the samples
-    where one piece ends and the next begins (default none)."""
+    where one piece ends and the next begins (default none); ``reversals``: split the spline where
+    the path turns back."""
 
     length = 1.0
 
-    def __init__(self, q: np.ndarray, junctions: np.ndarray | None = None) -> None:
+    def __init__(
+        self, q: np.ndarray, junctions: np.ndarray | None = None, reversals: bool = False
+    ) -> None:
         q = np.asarray(q, dtype=float)
-        step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+        steps = np.diff(q, axis=0)
+        step = np.linalg.norm(steps, axis=1)
         lam = np.concatenate([[0.0], np.cumsum(step)])
         self.knots = lam / lam[-1]
         self.samples = q
         self.dof = int(q.shape[1])
-        self._spline = smooth_spline(self.knots, q)
+        turns = np.zeros(0, dtype=int)
+        if reversals and len(q) > 2:
+            turns = np.flatnonzero(np.einsum("ij,ij->i", steps[:-1], steps[1:]) < 0.0) + 1
+        ends = np.concatenate([[0], turns, [len(q) - 1]])
+        self._splines = [
+            smooth_spline(self.knots[a : b + 1], q[a : b + 1]) for a, b in zip(ends[:-1], ends[1:])
+        ]
+        self._cuts = self.knots[turns]
         inner = np.zeros(0) if junctions is None else self.knots[np.asarray(junctions, dtype=int)]
-        self._breaks = np.unique(np.concatenate([[0.0, 1.0], inner]))
+        self._breaks = np.unique(np.concatenate([[0.0, 1.0], inner, self._cuts]))
 
     def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
-        """q (order 0) or d^n q / ds^n (order n <= 3) at ``s`` ``(N,)``: ``(N, dof)``."""
+        """q (order 0) or d^n q / ds^n (order n <= 3) at ``s`` ``(N,)``: ``(N, dof)`` (at a
+        reversal: the spline after it)."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
-        return np.asarray(self._spline(s, order), dtype=float)
+        if not len(self._cuts):
+            return np.asarray(self._splines[0](s, order), dtype=float)
+        which = np.searchsorted(self._cuts, s, side="right")
+        out = np.empty((len(s), self.dof))
+        for k, spline in enumerate(self._splines):
+            sel = which == k
+            if sel.any():
+                out[sel] = spline(s[sel], order)
+        return out
 
     def breakpoints(self) -> np.ndarray:
-        """Both ends and the pieces' junctions: a timing grid holds them, so each grid interval
-        lies in one piece (q and its first two derivatives are continuous everywhere)."""
+        """Both ends, the pieces' junctions and the reversals: a timing grid holds them, so each
+        grid interval lies in one piece (q, dq/ds and d2q/ds2 are continuous but at reversals)."""
         return self._breaks.copy()
 
     def joins(self) -> np.ndarray:

@@ -21,6 +21,7 @@ import numpy as np
 
 from core.errors import PlanningError
 from core.joint.effort import (
+    TOLERANCE,
     Sampled,
     TimeScaled,
     effort_peak_ratio,
@@ -31,7 +32,6 @@ from core.kinematics import DEFAULT_GRAVITY
 from core.program.chunk import ChunkTiming
 from core.program.piece import Piece
 from core.program.segments import ProgramTask
-from core.timing.topp import TOLERANCE
 
 
 def held_effort(task: ProgramTask, timing: ChunkTiming) -> ChunkTiming:
@@ -42,28 +42,31 @@ def held_effort(task: ProgramTask, timing: ChunkTiming) -> ChunkTiming:
         return timing
     names = task.robot.joint_names
     duration = timing.duration
-    try:
-        if effort_peak_ratio(timing, effort, names) <= 1.0 + TOLERANCE:
-            return timing
-        slower = shortest_for_effort(
-            lambda T: timing.slower(T / duration), duration, effort, names, task.deadline
-        )
-    except PlanningError as err:
-        if err.s is not None:  # a share of the duration: the path fraction there
-            err.s = float(timing.law(np.array([err.s * duration]))[0])
-        raise
+
+    def where(share: float) -> float:  # the path fraction at a share of the duration
+        return float(timing.law(np.array([share * duration]))[0])
+
+    if effort_peak_ratio(timing, effort, names, where) <= 1.0 + TOLERANCE:
+        return timing
+    slower = shortest_for_effort(
+        lambda T: timing.slower(T / duration), duration, effort, names, task.deadline, where
+    )
     return slower  # type: ignore[return-value]
 
 
 def held_profile_effort(task: ProgramTask, profile: Sampled, names: Sequence[str]) -> Sampled:
     """A PTP's joint profile (rest to rest) slowed until its torque keeps ``task.effort``; a
-    failure's ``s`` is a share of the duration (the PTP's path parameter for a straight move is
-    close to it, not equal)."""
+    failure's ``s`` is the share of the joint segment there."""
     effort = task.effort
     if effort is None:
         return profile
     duration = float(profile.duration)
-    if effort_peak_ratio(profile, effort, names) <= 1.0 + TOLERANCE:
+
+    def where(share: float) -> float:  # s(t) of the straight move: its share of the segment
+        law = getattr(profile, "law", None)
+        return share if law is None else float(np.ravel(law(np.array([share * duration])))[0])
+
+    if effort_peak_ratio(profile, effort, names, where) <= 1.0 + TOLERANCE:
         return profile
     return shortest_for_effort(
         lambda T: TimeScaled(profile, T),  # type: ignore[arg-type]
@@ -71,6 +74,7 @@ def held_profile_effort(task: ProgramTask, profile: Sampled, names: Sequence[str
         effort,
         names,
         task.deadline,
+        where,
     )
 
 

@@ -27,6 +27,10 @@ from core.program.effort import held_effort, held_profile_effort, locate
 from core.program.piece import Piece
 from core.program.segments import ProgramTask
 from core.timing import DEFAULT_LAW, TIMING_LAWS, TimingSpec
+
+STOPPING_LAWS = frozenset({"time_optimal"})
+"""Laws that stop where a chunk's path turns back (``ChunkPath`` with ``reversals``); the others
+(a quintic spline s(t) through a grid) pass through the spline's tight turn there."""
 from core.trajectory import Peaks, Profile
 
 __all__ = ["Piece", "ProfileTiming", "chunks_of", "profile_kind", "time_pieces"]
@@ -96,9 +100,11 @@ def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
         return None
     keep = np.concatenate([[True], step > 1e-13])
     index = np.cumsum(keep) - 1  # old sample -> kept sample
-    path = ChunkPath(q[keep], junctions=index[starts[1:]])
+    name = chunk_law(task, chunk)
+    # a law that keeps its limits at every instant stops where the path turns back
+    path = ChunkPath(q[keep], junctions=index[starts[1:]], reversals=name in STOPPING_LAWS)
     spots = [path.knots[index[a : b + 1]] for a, b in zip(starts, ends, strict=True)]
-    law = TIMING_LAWS[chunk_law(task, chunk)]
+    law = TIMING_LAWS[name]
     spec = TimingSpec(
         path=path,
         limits=chunk_limits(task, chunk, path, keep, starts),
@@ -178,8 +184,6 @@ def _profile_time(task: ProgramTask, chunk: list[Piece], kind: str) -> ProfileTi
     try:
         profile = held_profile_effort(task, profile, robot.joint_names)  # type: ignore[assignment]
     except PlanningError as err:
-        if err.s is not None:  # a share of the duration: the share of the joint segment there
-            err.s = float(np.ravel(profile.law(np.array([err.s * profile.duration])))[0])
         err.extra["segment"] = p.owner
         raise
     p.times = (0.0, profile.duration)

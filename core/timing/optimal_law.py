@@ -15,14 +15,18 @@ from __future__ import annotations
 import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
-from core.errors import InputError
+from core.errors import Infeasible, InputError
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import PathLimits
 from core.timing.topp import Binding, TimeOptimal, time_optimal
+from core.trajectory import MAX_DURATION
 
 
 class OptimalLaw:
     """A ``TimeOptimal`` profile as a ``PathLaw`` (see the module docstring)."""
+
+    keeps_effort = True
+    """The effort limits of its rows hold already (``core.program.effort``)."""
 
     def __init__(self, profile: TimeOptimal) -> None:
         self.profile = profile
@@ -58,7 +62,17 @@ def optimal(
     joint_names: tuple[str, ...] = (),
     deadline: Deadline = NO_DEADLINE,
 ) -> OptimalLaw:
-    """The time-optimal law of ``path`` under ``limits`` (``InputError`` without them)."""
+    """The time-optimal law of ``path`` under ``limits`` (``InputError`` without them;
+    ``Infeasible`` when the limits leave no motion of at most ``MAX_DURATION``)."""
     if limits is None:
         raise InputError("the time-optimal law needs the limits as rows (PathLimits.rows)")
-    return OptimalLaw(time_optimal(path, limits, joint_names=joint_names, deadline=deadline))
+    try:
+        profile = time_optimal(path, limits, joint_names=joint_names, deadline=deadline)
+    except InputError as err:  # a speed of zero inside the path
+        raise Infeasible("the limits leave no motion along the path (a speed of zero)") from err
+    if not profile.duration <= MAX_DURATION:
+        raise Infeasible(
+            f"the stretch would last {profile.duration:.4g} s under these limits, over the "
+            f"{MAX_DURATION:g} s bound of any trajectory"
+        )
+    return OptimalLaw(profile)

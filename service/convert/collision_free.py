@@ -20,6 +20,7 @@ from core.limits import check_positions
 from core.motion.goals import Goals, pose_goals
 from core.motion.plan import MotionResult, MotionTask
 from robots.model import Robot
+from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.environment import clearance_diagnostics
 from service.convert.joint import joint_limits
 from service.convert.robot import robot_and_names
@@ -78,6 +79,9 @@ def motion_task(
         max_points=max_points,
         joint_names=names,
         deadline=deadline,
+        effort=effort_inputs(body, robot, robot.dof),
+        dynamics=dynamics_of(robot),
+        gravity=gravity_of(body, robot),
     )
 
 
@@ -103,6 +107,8 @@ def response(
         goal_configuration=result.configuration,
         **clearance_diagnostics(result.clearance, warnings),
     )
+    if result.peak_effort is not None:
+        diag["peak_effort"] = result.peak_effort
     waypoints = np.asarray(result.waypoints, dtype=float).tolist()
     return json_response(
         trajectory_body(traj, diag, time_format, encoded=True, waypoints=waypoints)

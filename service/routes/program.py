@@ -21,8 +21,10 @@ from core.limits import entry_positions
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
+from robots.model import Robot
 from service import deps
 from service.convert.cartesian import failure_body
+from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.environment import (
     clearance_diagnostics,
     collision_check,
@@ -52,12 +54,12 @@ def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) 
 
 def task_from_request(
     body: ProgramRequest,
-    robot: Kinematics,
+    robot: Robot,
     deadline: Deadline,
     check: Clearance | None = None,
 ) -> ProgramTask:
     """The core task of a request: joint arrays checked against the robot; ``check``: the
-    request's collision object."""
+    request's collision object; effort limits and gravity (``service.convert.dynamics``)."""
     segments = []
     for i, s in enumerate(body.segments):
         loc = ("segments", i, "goal", "positions")
@@ -89,6 +91,8 @@ def task_from_request(
                 speed_profile=s.speed_profile,
                 max_linear_jerk=s.max_linear_jerk,
                 max_angular_jerk=s.max_angular_jerk,
+                max_linear_acceleration=s.max_linear_acceleration,
+                max_angular_acceleration=s.max_angular_acceleration,
                 position_tolerance=s.tolerance.position,
                 orientation_tolerance=s.tolerance.orientation,
                 method=s.method,
@@ -105,6 +109,10 @@ def task_from_request(
         allow_partial=body.allow_partial,
         deadline=deadline,
         collision_check=check,
+        timing=body.timing,
+        effort=effort_inputs(body, robot, robot.dof),
+        dynamics=dynamics_of(robot),
+        gravity=gravity_of(body, robot),
     )
 
 
@@ -126,7 +134,7 @@ def result_body(
     diag = base_diagnostics(traj, "program", compute_time_ms)
     diag["warnings"] = [*result.warnings, *unchecked]
     diag["fraction"] = result.fraction
-    diag.update({k: _finite(v) for k, v in result.diagnostics.items()})
+    diag.update({k: _finite(v) for k, v in result.diagnostics.items()})  # peak_effort too
     diag.update(clearance_diagnostics(result.clearance, unchecked))
     if result.failure is not None:
         err: PlanningError = result.failure
