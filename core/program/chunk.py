@@ -21,6 +21,7 @@ highest values by golden-section search, so the peak is not under-reported betwe
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,7 +61,7 @@ class ChunkPath:
             turns = np.flatnonzero(np.einsum("ij,ij->i", steps[:-1], steps[1:]) < 0.0) + 1
         ends = np.concatenate([[0], turns, [len(q) - 1]])
         self._splines = [
-            smooth_spline(self.knots[a : b + 1], q[a : b + 1]) for a, b in zip(ends[:-1], ends[1:])
+            smooth_spline(self.knots[a : b + 1], q[a : b + 1]) for a, b in itertools.pairwise(ends)
         ]
         self._cuts = self.knots[turns]
         inner = np.zeros(0) if junctions is None else self.knots[np.asarray(junctions, dtype=int)]

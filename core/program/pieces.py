@@ -27,13 +27,13 @@ from core.program.effort import held_effort, held_profile_effort, locate
 from core.program.piece import Piece
 from core.program.segments import ProgramTask
 from core.timing import DEFAULT_LAW, TIMING_LAWS, TimingSpec
+from core.trajectory import Peaks, Profile
+
+__all__ = ["Piece", "ProfileTiming", "chunks_of", "profile_kind", "time_pieces"]
 
 STOPPING_LAWS = frozenset({"time_optimal"})
 """Laws that stop where a chunk's path turns back (``ChunkPath`` with ``reversals``); the others
 (a quintic spline s(t) through a grid) pass through the spline's tight turn there."""
-from core.trajectory import Peaks, Profile
-
-__all__ = ["Piece", "ProfileTiming", "chunks_of", "profile_kind", "time_pieces"]
 
 
 def chunks_of(task: ProgramTask, geo: Geometry) -> list[list[Piece]]:
