@@ -232,3 +232,29 @@ def held_trajectory(
         lambda T: HermiteMotion(trajectory, T / duration), duration, effort, names, deadline, where
     )
     return float(held.duration) / duration
+
+
+def held_motion(
+    trajectory: Trajectory,
+    effort: Effort | None,
+    dynamics: Dynamics | None,
+    gravity: np.ndarray | None,
+    names: Sequence[str],
+    deadline: Deadline = NO_DEADLINE,
+) -> tuple[Trajectory, np.ndarray | None]:
+    """A joint motion's ``trajectory`` slowed until its torque keeps ``effort`` (a failure's
+    ``s``: the share of the joint path's length there) and its peak effort (None without
+    ``dynamics``)."""
+    if effort is not None and trajectory.duration > 0.0:
+        q, times = trajectory.positions, trajectory.times
+        length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+        share = length / length[-1] if length[-1] > 0 else length
+
+        def where(fraction: float) -> float:
+            return float(np.interp(fraction * times[-1], times, share))
+
+        k = held_trajectory(trajectory, effort, names, deadline, where)
+        trajectory = slowed(trajectory, k) if k > 1.0 else trajectory
+    if dynamics is None:
+        return trajectory, None
+    return trajectory, peak_effort(dynamics, HermiteMotion(trajectory), trajectory.times, gravity)

@@ -27,7 +27,7 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.collisions import ClearanceReport, checked
 from core.errors import Collision, InputError, NoPathFound
-from core.joint.effort import HermiteMotion, held_trajectory, peak_effort, slowed
+from core.joint.effort import held_motion
 from core.kinematics import Dynamics
 from core.limits import JointLimits
 from core.motion.certify import Certifier
@@ -333,26 +333,6 @@ class MotionResult:
     peak_effort: np.ndarray | None = None
 
 
-def held_effort(task: MotionTask, trajectory: Trajectory) -> tuple[Trajectory, np.ndarray | None]:
-    """``trajectory`` slowed until its torque keeps ``task.effort`` (a failure's ``s``: the share
-    of the joint path's length there), and its peak effort (None without dynamics)."""
-    if task.effort is not None and trajectory.duration > 0.0:
-        q = trajectory.positions
-        share = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
-        share = share / share[-1] if share[-1] > 0 else share
-        times = trajectory.times
-
-        def where(fraction: float) -> float:
-            return float(np.interp(fraction * times[-1], times, share))
-
-        k = held_trajectory(trajectory, task.effort, task.joint_names, task.deadline, where)
-        trajectory = slowed(trajectory, k) if k > 1.0 else trajectory
-    if task.dynamics is None:
-        return trajectory, None
-    motion = HermiteMotion(trajectory)
-    return trajectory, peak_effort(task.dynamics, motion, trajectory.times, task.gravity)
-
-
 def check_ends(clearance: GroupClearance, certifier: Certifier, task: MotionTask) -> Goals:
     """``Collision`` at the start or at a given goal that is not clear (the closest pair);
     the clear candidates of a goal pose (``Unreachable`` when none is)."""
@@ -406,7 +386,9 @@ def plan_motion(
         trajectory, path = certified_samples(Certifier(clearance), found.path, lim, *sampling)
         waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
-    trajectory, peak = held_effort(task, trajectory)
+    trajectory, peak = held_motion(
+        trajectory, task.effort, task.dynamics, task.gravity, task.joint_names, task.deadline
+    )
     report = checked(trajectory, clearance) if len(clearance.pair_names) else None
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,

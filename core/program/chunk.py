@@ -21,12 +21,14 @@ highest values by golden-section search, so the peak is not under-reported betwe
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from core.program.geometry.smooth import smooth_spline
+from core.timing.path_limits import PathLimits
 from core.timing.path_profile import PathLaw, Stretched, dense_times, joint_motion
 from core.trajectory import Peaks
 
@@ -99,17 +101,20 @@ class ChunkTiming:
         path: The chunk's joint path.
         law: s(t) from 0 to 1, rest to rest.
         knot_times: Time [s] of each of the path's samples ``(K,)``, from 0 to ``duration``.
+        limits: The limits the law timed it under (``core.timing.path_limits.PathLimits``), or
+            None.
     """
 
     path: ChunkPath
     law: PathLaw
     knot_times: np.ndarray
+    limits: PathLimits | None = None
 
     @classmethod
-    def of(cls, path: ChunkPath, law: PathLaw) -> ChunkTiming:
+    def of(cls, path: ChunkPath, law: PathLaw, limits: PathLimits | None = None) -> ChunkTiming:
         t = np.asarray(law.time_at(path.knots), dtype=float)
         t[0], t[-1] = 0.0, law.duration
-        return cls(path, law, t)
+        return cls(path, law, t, limits)
 
     @property
     def duration(self) -> float:
@@ -129,7 +134,9 @@ class ChunkTiming:
         """The same chunk run ``factor`` (>= 1) times slower."""
         law = self.law
         inner, k = (law.law, law.stretch) if isinstance(law, Stretched) else (law, 1.0)
-        return ChunkTiming(self.path, Stretched(inner, k * factor), self.knot_times * factor)
+        return ChunkTiming(
+            self.path, Stretched(inner, k * factor), self.knot_times * factor, self.limits
+        )
 
     def switch_times(self) -> np.ndarray:
         """Times [s] inside the chunk where q(t) may not be smooth (the law's switches)."""
@@ -140,7 +147,12 @@ class ChunkTiming:
         return self.path.samples[[0, -1]]
 
     def peaks(self) -> Peaks:
-        """Largest |q'|, |q''|, |q'''| per joint over the chunk (see the module docstring)."""
+        """Largest |q'|, |q''|, |q'''| per joint over the chunk (see the module docstring;
+        measured once)."""
+        return self._peaks
+
+    @functools.cached_property
+    def _peaks(self) -> Peaks:
         knots = np.unique(np.concatenate([self.knot_times, self.switch_times()]))
         t = dense_times(knots, CHECKS_PER_INTERVAL)
         eps = 1e-9 * max(self.duration, 1.0)

@@ -112,7 +112,7 @@ def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
         deadline=task.deadline,
     )
     try:
-        timing = held_effort(task, ChunkTiming.of(path, law(spec)))
+        timing = held_effort(task, ChunkTiming.of(path, law(spec), spec.limits))
     except PlanningError as err:
         locate(err, chunk, spots)
         raise
