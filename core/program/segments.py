@@ -15,6 +15,7 @@ from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.task import DEFAULT_MAX_ANGULAR_SPEED, DEFAULT_MAX_LINEAR_SPEED
 from core.joint.profiles import PROFILES
 from core.kinematics import Clearance, Dynamics, Kinematics
+from core.motion.clearance import GroupClearance
 from core.timing import DEFAULT_LAW, PROGRAM_DEFAULT
 from core.timing.path_constraints import Effort
 from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
@@ -63,6 +64,8 @@ class Segment:
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
         method: LIN/CIRC: the ``core.cartesian.methods.METHODS`` entry that plans the segment's
             joint path on its line or arc (``core.program.build``).
+        planner: PTP: ``"collision_free"``: its joint motion is found around the environment's
+            obstacles (``core.program.ptp_planned``); None: the straight joint segment.
     """
 
     type: SegmentType
@@ -85,6 +88,7 @@ class Segment:
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
     method: str = "sampled"
+    planner: str | None = None
 
     def tool_jerks(self) -> tuple[float, float]:
         """S-curve tool jerk limits [m/s^3], [rad/s^3] (defaults where not given)."""
@@ -139,6 +143,10 @@ class ProgramTask:
         effort: Effort limits with the robot's dynamics (``core.program.effort``), or None.
         dynamics: The robot's dynamics, for ``peak_effort`` (None: none known).
         gravity: Gravity ``(3,)`` [m/s^2] in the base frame for ``peak_effort`` (None: default).
+        seed: Seed of the collision-free planner of PTP segments (integer >= 0).
+        planner_clearance: The environment's clearance for that planner
+            (``core.motion.clearance.GroupClearance``), None: no environment (a PTP stays
+            straight).
     """
 
     robot: Kinematics
@@ -153,3 +161,5 @@ class ProgramTask:
     effort: Effort | None = None
     dynamics: Dynamics | None = None
     gravity: np.ndarray | None = None
+    seed: int = 0
+    planner_clearance: GroupClearance | None = None

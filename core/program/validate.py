@@ -20,6 +20,7 @@ from core.errors import InputError
 from core.joint.profiles import PROFILES
 from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
+from core.program.ptp_planned import PLANNERS
 from core.program.segments import MAX_SEGMENTS, ProgramTask, ptp_profile
 from core.timing import DEFAULT_LAW, JOINT_PATH_LAWS, TIMING_LAWS, program_law, speed_profile_law
 
@@ -122,6 +123,17 @@ def check_segment(task: ProgramTask, i: int) -> None:
         value = getattr(seg, name)
         if value is not None and not (np.isfinite(value) and value > 0.0):
             raise InputError(f"{name} must be > 0", field=("segments", i, name))
+    if seg.planner is not None and (seg.type != "ptp" or seg.planner not in PLANNERS):
+        raise InputError(
+            f"planner must be one of {', '.join(PLANNERS)} (PTP segments only)",
+            field=("segments", i, "planner"),
+        )
+    if seg.planner is not None and seg.profile is not None:
+        raise InputError(
+            "a PTP with a planner follows its planned path under the program's timing: give no "
+            "profile",
+            field=("segments", i, "profile"),
+        )
     if seg.profile is None:
         return
     if seg.type != "ptp" or not ptp_profile(seg.profile):

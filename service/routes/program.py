@@ -22,6 +22,7 @@ from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
 from robots.model import Robot
+from robots.validity import GroupedClearance
 from service import deps
 from service.convert.cartesian import failure_body
 from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
@@ -52,6 +53,15 @@ def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) 
     return entry_positions(values, robot.position_limits, robot.joint_names, loc, extra=segment)
 
 
+def planner_clearance(body: ProgramRequest, check: Clearance | None) -> GroupedClearance | None:
+    """The collision-free planner's view of the request's collision object, when the program has
+    an environment and a PTP segment asks for the planner."""
+    asks = any(isinstance(s, PtpSegment) and s.planner is not None for s in body.segments)
+    if not asks or body.environment is None or check is None:
+        return None
+    return GroupedClearance(check)  # type: ignore[arg-type]
+
+
 def task_from_request(
     body: ProgramRequest,
     robot: Robot,
@@ -74,7 +84,13 @@ def task_from_request(
         }
         if isinstance(s, PtpSegment):
             segments.append(
-                Segment("ptp", configuration=s.goal.configuration, profile=s.profile, **common)
+                Segment(
+                    "ptp",
+                    configuration=s.goal.configuration,
+                    profile=s.profile,
+                    planner=s.planner,
+                    **common,
+                )
             )
             continue
         extra: dict[str, Any] = {}
@@ -110,6 +126,8 @@ def task_from_request(
         deadline=deadline,
         collision_check=check,
         timing=body.timing,
+        seed=body.seed,
+        planner_clearance=planner_clearance(body, check),
         effort=effort_inputs(body, robot, robot.dof),
         dynamics=dynamics_of(robot),
         gravity=gravity_of(body, robot),

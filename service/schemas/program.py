@@ -23,6 +23,7 @@ from service.schemas.cartesian import (
     CartesianGoal,
     Tolerance,
 )
+from service.schemas.collision_free import MAX_SEED
 from service.schemas.common import (
     GRAVITY_FIELD,
     TOOL_FIELD,
@@ -137,6 +138,17 @@ class PtpSegment(_Common):
         "timing (time-optimal along the path, q'' continuous). Inside a blend a profile has no "
         "meaning (the blend is timed with its neighbours as one motion): it is ignored with a "
         "warning.",
+    )
+
+    planner: Literal["collision_free"] | None = Field(
+        default=None,
+        description="collision_free: the PTP's joint motion is planned around the environment's "
+        "obstacles as POST /v1/trajectories/collision_free plans it (the direct segment when it "
+        "is clear, else a certified RRT-Connect path, shortened and smoothed; a goal pose tries "
+        "its clear IK solutions, nearest first; deterministic per the program's `seed`) and "
+        "blends with its neighbours like any PTP; the program's continuous check covers the "
+        "whole motion. Needs an `environment` (without one the PTP stays straight); not with "
+        "`profile`. No path within the time budget: 422 no_path_found.",
     )
 
 
@@ -280,6 +292,13 @@ class ProgramRequest(StrictModel):
         "apart). `jerk_limited`: round 2's timing, acceleration continuous (C2) everywhere, "
         "slower. A LIN/CIRC with speed_profile s_curve times its stretch as an S-curve under "
         "either.",
+    )
+    seed: int = Field(
+        default=0,
+        ge=0,
+        le=MAX_SEED,
+        description="Seed of the collision-free planner of PTP segments with planner "
+        "collision_free (0 to 2^31 - 1): the same program and seed give the same answer.",
     )
     limits: EffortLimits | None = Field(
         default=None,
