@@ -4,9 +4,10 @@
 q(s) through its dense joint samples, s in [0, 1] its normalized joint-space arc length (so dq/ds
 is continuous across pieces that meet with a continuous tangent), a C2 cubic spline
 (``core.program.geometry.smooth``). It implements ``core.timing.joint_path.JoinedPath``: any
-path timing law of ``core.timing.TIMING_LAWS`` times it; its breakpoints are the junctions of its
-pieces (where the limits may change: each segment has its own scales and tool limits), its joins
-the spline's knots (where d3q/ds3 steps). With ``reversals``, a sample where the path turns back
+path timing law of ``core.timing.TIMING_LAWS`` times it; its breakpoints are the spline's knots
+(where d3q/ds3 steps: a grid that holds them sees a tight blend's curvature, which lies between
+them) and the junctions of its pieces (where the limits may change: each segment has its own
+scales and tool limits), also given as its joins. With ``reversals``, a sample where the path turns back
 (consecutive steps more than 90 degrees apart: a blend between a line and its reverse goes straight
 down and back up) ends one spline and starts the next, so dq/ds steps there and a law that keeps
 every limit everywhere stops there (``core.timing.path_grid.stops``); one spline through it would
@@ -67,7 +68,7 @@ class ChunkPath:
         ]
         self._cuts = self.knots[turns]
         inner = np.zeros(0) if junctions is None else self.knots[np.asarray(junctions, dtype=int)]
-        self._breaks = np.unique(np.concatenate([[0.0, 1.0], inner, self._cuts]))
+        self._breaks = np.unique(np.concatenate([self.knots, inner, self._cuts]))
 
     def __call__(self, s: np.ndarray, order: int = 0) -> np.ndarray:
         """q (order 0) or d^n q / ds^n (order n <= 3) at ``s`` ``(N,)``: ``(N, dof)`` (at a
@@ -84,8 +85,9 @@ class ChunkPath:
         return out
 
     def breakpoints(self) -> np.ndarray:
-        """Both ends, the pieces' junctions and the reversals: a timing grid holds them, so each
-        grid interval lies in one piece (q, dq/ds and d2q/ds2 are continuous but at reversals)."""
+        """The samples' s (the pieces' junctions and the reversals among them): a timing grid
+        holds them, so each grid interval lies in one piece and one cubic of the spline (q, dq/ds
+        and d2q/ds2 are continuous but at reversals)."""
         return self._breaks.copy()
 
     def joins(self) -> np.ndarray:
