@@ -80,8 +80,8 @@ def program(request):
 
 
 def test_the_duration_is_within_2_percent_of_topp_ra_on_the_same_path_and_limits(program):
-    task, result, timed = program
-    ((_, timing, _),) = timed.timings  # noqa: the rectangle blends at every corner: one stretch
+    _, result, timed = program
+    ((_, timing, _),) = timed.timings  # the rectangle blends at every corner: one stretch
     path, rows = timing.path, timing.limits.rows
     fine = np.unique(np.concatenate([np.linspace(0.0, 1.0, 2001), path.breakpoints()]))
     reference, _ = toppra_on_chunk(path, rows, fine)
@@ -91,7 +91,7 @@ def test_the_duration_is_within_2_percent_of_topp_ra_on_the_same_path_and_limits
 
 
 def test_the_limits_hold_at_the_points_and_between_them(program):
-    task, result, _ = program
+    _, result, _ = program
     tr = result.trajectory
     v_max, a_max = UR5.velocity_limits, UR5.acceleration_limits
     assert np.all(np.abs(tr.velocities) <= v_max * (1 + 1e-9))
@@ -125,7 +125,7 @@ def test_every_acceleration_step_lies_between_two_close_points_and_every_switch_
     task = ProgramTask(UR5, HOME, rectangle("lin"), sample_period=0.01)
     timed = timed_program(task)
     tr = plan_program(task).trajectory
-    ((offset, timing, _),) = timed.timings  # noqa: one stretch
+    ((offset, timing, _),) = timed.timings  # one stretch
     switches = offset + timing.switch_times()
     assert len(switches) > 10
     assert np.min(np.abs(tr.times[:, None] - switches[None, :]), axis=0).max() < 1e-12
@@ -148,7 +148,7 @@ def test_a_lin_and_its_reverse_blended_stop_where_the_path_turns_back():
     task = ProgramTask(UR5, HOME, segs, sample_period=0.005)
     result = plan_program(task)
     tr = result.trajectory
-    ((_, timing, _),) = timed_program(task).timings  # noqa: one stretch
+    ((_, timing, _),) = timed_program(task).timings  # one stretch
     assert len(timing.law.profile.switch_times) < 2000
     b0, b1 = result.segments[0].blend_out
     inside = (tr.times > b0) & (tr.times < b1)
