@@ -151,6 +151,7 @@ def shortest_for_effort(
     t = np.linspace(0.0, motion.duration, CHUNK * CHUNKS + 1)
     b, c = _torques(effort.dynamics, motion, t, effort.gravity)
     scale2 = max(1.0, float(_needed(b, c, np.asarray(effort.limits, float)).max()))
+    last: tuple[float, float] | None = None  # the previous (scale2, worst): a secant step
     for _ in range(STRETCHES):
         stretched = duration * float(np.sqrt(scale2))
         if not stretched <= MAX_DURATION:
@@ -163,7 +164,11 @@ def shortest_for_effort(
         worst = effort_peak_ratio(candidate, effort, names, where)
         if worst <= 1.0:
             return candidate
-        scale2 *= 1.0 + 4.0 * (worst - 1.0) + MARGIN
+        step = scale2 * (4.0 * (worst - 1.0) + MARGIN)
+        if last is not None and last[1] > worst:  # the peak falls this fast with scale2
+            step = max(step, (scale2 - last[0]) * (worst - 1.0) / (last[1] - worst) * 1.5)
+        last = (scale2, worst)
+        scale2 += step
         deadline.check("effort limits")
     raise Infeasible("no duration found that keeps the effort limits", field=("limits", "effort"))
 
@@ -258,3 +263,14 @@ def held_motion(
     if dynamics is None:
         return trajectory, None
     return trajectory, peak_effort(dynamics, HermiteMotion(trajectory), trajectory.times, gravity)
+
+
+def effort_stretch(motion: Sampled, effort: Effort, times: np.ndarray) -> float:
+    """The factor k >= 1 by which ``motion`` must run slower for its torque to keep ``effort`` at
+    ``times`` ``(K,)`` and ``DENSE`` points between consecutive ones (1.0 when it does within
+    ``TOLERANCE``): each sample needs k^2 >= b / (limit - g) (module docstring)."""
+    times = np.asarray(times, dtype=float)
+    inner = times[:-1, None] + np.diff(times)[:, None] * np.arange(1, DENSE + 1) / (DENSE + 1)
+    b, c = _torques(effort.dynamics, motion, np.concatenate([times, inner.ravel()]), effort.gravity)
+    k2 = float(_needed(b, c, np.asarray(effort.limits, dtype=float)).max(initial=0.0))
+    return 1.0 if k2 <= 1.0 + TOLERANCE else float(np.sqrt(k2)) * (1.0 + MARGIN)

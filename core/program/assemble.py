@@ -21,6 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from core.errors import Infeasible, PlanningError, TooLarge
+from core.joint.effort import effort_stretch
 from core.program.chunk import ChunkTiming
 from core.program.effort import program_peak_effort, rest_effort
 from core.program.pieces import Piece, ProfileTiming, time_pieces
@@ -93,8 +94,9 @@ def motions(timed: TimedProgram) -> list[ChunkMotion]:
 
 def settled(timed: TimedProgram) -> TimedProgram:
     """``timed`` with every chunk whose returned motion (the cubic through its returned points)
-    overshoots a joint velocity or acceleration limit run that much slower (velocity by 1/k,
-    acceleration by 1/k^2), until none does (``SETTLE_ROUNDS`` at most)."""
+    overshoots a joint velocity or acceleration limit, or an effort limit, run that much slower
+    (velocity by 1/k, acceleration by 1/k^2; the torque without gravity by 1/k^2), until none
+    does (``SETTLE_ROUNDS`` at most)."""
     if not timed.timings:
         return timed
     robot = timed.task.robot
@@ -106,6 +108,8 @@ def settled(timed: TimedProgram) -> TimedProgram:
         for k, motion in enumerate(motions(timed)):
             r_v, r_a = motion.ratios(v_max, a_max, timed.timings[k][2])
             f = stretch_for((r_v, r_a))
+            if timed.task.effort is not None:
+                f = max(f, effort_stretch(motion, timed.task.effort, motion.times))
             if f > 1.0:
                 factors[k] = f
         if not factors:
@@ -149,7 +153,7 @@ def assemble(timed: TimedProgram) -> ProgramResult:
     # rest-to-rest stretches the program has (stops + 1).
     result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)
     result.diagnostics["stops"] = len(timings) - 1
-    effort = program_peak_effort(task, motion, times)
+    effort = program_peak_effort(task, motion, traj)
     if effort is not None:
         result.diagnostics["peak_effort"] = effort
     return result

@@ -32,6 +32,7 @@ from core.kinematics import DEFAULT_GRAVITY
 from core.program.chunk import ChunkTiming
 from core.program.piece import Piece
 from core.program.segments import ProgramTask
+from core.trajectory import Trajectory
 
 
 def held_effort(task: ProgramTask, timing: ChunkTiming) -> ChunkTiming:
@@ -102,10 +103,18 @@ def locate(err: PlanningError, chunk: list[Piece], spots: list[np.ndarray]) -> N
     err.s = share
 
 
-def program_peak_effort(task: ProgramTask, motion: Sampled, times: np.ndarray) -> np.ndarray | None:
-    """Largest |tau| [N m or N] per joint over ``motion`` at ``times`` and between them (None
-    without dynamics)."""
-    return peak_effort(task.dynamics, motion, times, task.gravity)
+def program_peak_effort(
+    task: ProgramTask, motion: Sampled, trajectory: Trajectory
+) -> np.ndarray | None:
+    """Largest |tau| [N m or N] per joint at the returned points (their own q, q', q'': at rest at
+    a chunk's ends) and over ``motion`` between them (None without dynamics)."""
+    between = peak_effort(task.dynamics, motion, trajectory.times, task.gravity)
+    if between is None or task.dynamics is None:
+        return None
+    tr = trajectory
+    gravity = np.asarray(DEFAULT_GRAVITY if task.gravity is None else task.gravity, dtype=float)
+    at = task.dynamics.inverse_dynamics(tr.positions, tr.velocities, tr.accelerations, gravity)
+    return np.maximum(between, np.abs(at).max(axis=0))
 
 
 def rest_effort(task: ProgramTask, q: np.ndarray) -> np.ndarray | None:
