@@ -17,8 +17,9 @@ S-curve's phases: its jerk is the limited quantity, which the spline would not k
 time-optimal law's grid, where s'' steps), are returned as their own exact samples, with every
 switch a returned point: between two points a trapezoid's acceleration is constant, a jerk-limited
 profile's linear. Where the acceleration steps (at a switch, and where a chunk leaves or reaches
-rest), two more points ``SWITCH_GAP`` before and after it (``switch_marks``) hold the step between
-them, and the path's spline knots (where the jerk steps) are returned points too; an interval over
+rest), two more points ``SWITCH_GAP`` before and after it hold the step between them, and the
+path's spline knots (where the jerk steps) are returned points
+too (``switch_marks``); an interval over
 which the trapezoid rule of the returned accelerations misses the returned velocities by more than
 ``INTEGRAL_TOLERANCE`` is halved (``REFINE_ROUNDS`` times at most: the miss falls 8-fold a round),
 so integrating the returned accelerations between consecutive points gives the returned
@@ -44,9 +45,13 @@ SWITCH_GAP = 1e-8
 """[s] Distance of the points on either side of a step of the acceleration from it."""
 INTEGRAL_TOLERANCE = 1e-7
 """[rad/s] Largest miss of the trapezoid rule of the returned accelerations over an interval of
-exactly sampled points (the contract's 1e-6, with room)."""
+exactly sampled points (the contract's 1e-6 with room; the positions then follow the cubic of consecutive points to 1e-9)."""
 REFINE_ROUNDS = 8
 """Most rounds of halving the intervals that miss it."""
+STEP = 1e-5
+"""[rad/s^2] A step of the acceleration smaller than this gets no points of its own about it (over
+the regular spacing the trapezoid rule misses it by less than ``INTEGRAL_TOLERANCE``; the halving
+takes care of the rest)."""
 
 
 def rest(dof: int) -> tuple[list[tuple[int, np.ndarray]], list[tuple[int, np.ndarray]]]:
@@ -162,9 +167,10 @@ def _scales(times: np.ndarray, pieces: list[Piece]) -> tuple[np.ndarray, np.ndar
 
 
 def switch_marks(timing: ChunkTiming | ProfileTiming) -> np.ndarray:
-    """Times [s] in the chunk that must be returned points: every switch of its timing, and
-    ``SWITCH_GAP`` on either side of each one where the acceleration steps (the chunk's start and
-    end included: at rest there, moving off at once)."""
+    """Times [s] in the chunk that must be returned points: every switch of its timing and,
+    where the acceleration steps by more than ``STEP``, a point ``SWITCH_GAP`` on either side of
+    it (the chunk's start and end included: at rest there, moving off at once), whichever side's
+    acceleration the point at the switch itself carries after rounding."""
     switch = np.asarray(timing.switch_times(), dtype=float)
     if isinstance(timing, ChunkTiming) and not len(switch):
         return switch  # returned as a spline: no step anywhere
@@ -179,7 +185,7 @@ def switch_marks(timing: ChunkTiming | ProfileTiming) -> np.ndarray:
 
     # a step keeps its size as the points close in; a smooth change shrinks with them
     wide, narrow = jump(SWITCH_GAP), jump(0.1 * SWITCH_GAP)
-    steps = (narrow > 0.5 * wide) & (wide > 1e-12)
+    steps = (narrow > 0.5 * wide) & (wide > STEP)
     near = np.concatenate([at[steps] - SWITCH_GAP, at[steps] + SWITCH_GAP])
     # the path's spline knots: its third derivative (the motion's jerk) steps there
     knots = timing.knot_times[1:-1] if isinstance(timing, ChunkTiming) else np.zeros(0)
