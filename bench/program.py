@@ -27,7 +27,10 @@ import itertools
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -90,11 +93,11 @@ def _ptp(segs: tuple[Segment, ...]) -> tuple[Segment, ...]:
     return tuple(replace(s, type="ptp") for s in segs)
 
 
-def _median_ms(run: object, rounds: int) -> tuple[float, object]:
+def _median_ms(run: Callable[[], Any], rounds: int) -> tuple[float, Any]:
     times, out = [], None
     for _ in range(rounds):
         start = time.perf_counter()
-        out = run()  # type: ignore[operator]
+        out = run()
         times.append(time.perf_counter() - start)
     return 1e3 * float(np.median(times)), out
 
@@ -123,14 +126,14 @@ def p7_programs(robot: object, points: list[np.ndarray], radii: list[float]) -> 
         "s_curve": lambda: plan_program(s_curve),
     }
     times: dict[str, list[float]] = {k: [] for k in runs}
-    results: dict[str, object] = {}
+    results: dict[str, Any] = {}
     for _ in range(ROUNDS):
         for name, run in runs.items():
             start = time.perf_counter()
             results[name] = run()
             times[name].append(time.perf_counter() - start)
     med = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
-    cycle = {k: (v if k == "singles" else v.trajectory.duration) for k, v in results.items()}  # type: ignore[attr-defined]
+    cycle = {k: float(v if k == "singles" else v.trajectory.duration) for k, v in results.items()}
     lengths = [np.linalg.norm(b - a) for a, b in itertools.pairwise(points)]
     print(
         f"### P7: motion program, UR5, 10 LIN segments of {min(lengths) * 100:.0f}-"
@@ -169,16 +172,14 @@ def p7_optimum(robot: object, points: list[np.ndarray], radii: list[float]) -> N
         ("10 PTP", _ptp(segments(points, radii, True)), PTP_BEFORE),
     ):
         task = ProgramTask(robot, HOME, segs)  # type: ignore[arg-type]
-        ms, result = _median_ms(lambda task=task: plan_program(task), 3)
-        timing = timed_program(task).timings[0][1]
-        path, rows, law = timing.path, timing.limits.rows, timing.law  # type: ignore[union-attr]
-        ours_excess = excess(path, rows, law, law.duration, len(law.profile.switch_times))  # type: ignore[attr-defined]
-        answers = {}
+        ms, result = _median_ms(partial(plan_program, task), 3)
+        timing: Any = timed_program(task).timings[0][1]
+        path, rows, law = timing.path, timing.limits.rows, timing.law
+        ours_excess = excess(path, rows, law, law.duration, len(law.profile.switch_times))
+        answers: dict[str, tuple[float, float, float, int]] = {}
         fine = np.unique(np.concatenate([np.linspace(0, 1, FINE + 1), path.breakpoints()]))
         for grid, points_ in (("default", None), ("fine", fine)):
-            t_ms, (trajectory, n) = _median_ms(
-                lambda g=points_, p=path, r=rows: toppra_on_chunk(p, r, g), 3
-            )
+            t_ms, (trajectory, n) = _median_ms(partial(toppra_on_chunk, path, rows, points_), 3)
 
             def s_of_t(t, k, tr=trajectory):  # type: ignore[no-untyped-def]
                 return tr._eval_params(np.asarray(t, dtype=float))[k]

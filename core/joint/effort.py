@@ -48,7 +48,8 @@ TOLERANCE = 1e-9
 class Sampled(Protocol):
     """A motion: ``duration`` [s] and ``sample(t) -> (q, q', q'')``, each ``(K, dof)``."""
 
-    duration: float
+    @property
+    def duration(self) -> float: ...
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
@@ -121,7 +122,7 @@ def effort_peak_ratio(
         )
     ratio = np.abs(b + c) / limit
     chunks = np.stack([ratio[i : i + CHUNK + 1] for i in range(0, n, CHUNK)])
-    peak, where = sampled_peaks(chunks)
+    peak, inside = sampled_peaks(chunks)
     near = peak > 1.0 - 1e-6
     if near.any():
         i, r = np.nonzero(near)
@@ -132,7 +133,7 @@ def effort_peak_ratio(
             pick = np.arange(len(k))
             return np.abs(bb[pick, row] + cc[pick, row]) / limit[row]
 
-        peak[i, r] = np.maximum(peak[i, r], refine_peaks(evaluate, i, r, where[i, r], CHUNK + 1))
+        peak[i, r] = np.maximum(peak[i, r], refine_peaks(evaluate, i, r, inside[i, r], CHUNK + 1))
     return float(peak.max())
 
 

@@ -17,6 +17,7 @@ the position at t (``allow_partial`` when a collision is ahead, ``core.program.s
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -181,8 +182,8 @@ def at_rest(timed: TimedProgram) -> ProgramResult:
         SegmentResult(i, seg.type, 0.0, 0.0, None, {"skipped": True})
         for i, seg in enumerate(task.segments)
     )
-    diagnostics = {"max_position_deviation": 0.0, "max_orientation_deviation": 0.0,
-                   "min_singular_value": None, "stretch": 1.0, "stops": 0}  # fmt: skip
+    diagnostics: dict[str, Any] = {"max_position_deviation": 0.0, "max_orientation_deviation": 0.0,
+                                   "min_singular_value": None, "stretch": 1.0, "stops": 0}  # fmt: skip
     effort = rest_effort(task, q[0])
     if effort is not None:
         diagnostics["peak_effort"] = effort

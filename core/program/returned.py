@@ -89,6 +89,11 @@ class ChunkMotion:
             return self.timing.sample(tau)[0]
         return np.asarray(self.spline(tau), dtype=float)
 
+    @property
+    def duration(self) -> float:
+        """[s] of the chunk."""
+        return float(self.timing.duration)
+
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities, accelerations ``(N, dof)`` of the returned motion at program
         times ``t`` in the chunk."""

@@ -137,9 +137,9 @@ def check_segment(task: ProgramTask, i: int) -> None:
     if seg.profile is None:
         return
     if seg.type != "ptp" or not ptp_profile(seg.profile):
-        names = tuple(k for k in PROFILES if ptp_profile(k))
+        kinds = tuple(k for k in PROFILES if ptp_profile(k))
         raise InputError(
-            f"profile must be one of {', '.join(names)} (PTP segments only)",
+            f"profile must be one of {', '.join(kinds)} (PTP segments only)",
             field=("segments", i, "profile"),
         )
     if seg.profile == "jerk_limited" and robot.jerk_limits is None:

@@ -44,10 +44,11 @@ def effort_inputs(body: Any, robot: Robot | None, dof: int) -> Effort | None:
     gravity = gravity_of(body, robot)
     if effort is None:
         return None
-    if robot is None or dynamics_of(robot) is None:
+    dynamics = dynamics_of(robot)
+    if robot is None or dynamics is None:
         raise InputError(
             "limits.effort needs a robot with dynamics (inertial parameters); "
             + ("this request names none" if robot is None else f"{robot.name} has none"),
             field=EFFORT_FIELD,
         )
-    return Effort(robot.dynamics, joint_vector(effort, dof, EFFORT_FIELD), gravity)
+    return Effort(dynamics, joint_vector(effort, dof, EFFORT_FIELD), gravity)
