@@ -18,8 +18,8 @@ START_XY, GOAL_XY = (-0.8, 0.05), (0.8, 0.05)
 S_HOLE = (0.8 - math.sqrt(0.2**2 - 0.05**2)) / 1.6
 
 
-def elbow_up(x: float, y: float) -> list[float]:
-    """Closed-form IK of the planar arm (positive elbow angle)."""
+def elbow_down(x: float, y: float) -> list[float]:
+    """Closed-form IK of the planar arm, positive elbow angle: the service labels it `down`."""
     q2 = math.acos((x * x + y * y - L1 * L1 - L2 * L2) / (2 * L1 * L2))
     q1 = math.atan2(y, x) - math.atan2(L2 * math.sin(q2), L1 + L2 * math.cos(q2))
     return [q1, q2]
@@ -27,7 +27,7 @@ def elbow_up(x: float, y: float) -> list[float]:
 
 REQUEST = {
     "robot": "planar_2r",
-    "start": {"positions": elbow_up(*START_XY)},
+    "start": {"positions": elbow_down(*START_XY)},
     "goal": {"pose": {"position": [*GOAL_XY, 0.0], "orientation": [0.0, 0.0, 0.0, 1.0]}},
     "method": "sampled",
 }

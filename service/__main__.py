@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> None:
             log_config=log_config(args.log_level, settings.log_format),
             access_log=False,
             http=PROTOCOL,  # service/middleware/http_protocol.py
-            timeout_keep_alive=settings.keep_alive_timeout_s,
+            timeout_keep_alive=settings.keep_alive_timeout_s,  # type: ignore[arg-type]  # seconds, any
             limit_concurrency=settings.max_connections,
         )
 

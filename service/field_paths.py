@@ -14,7 +14,7 @@ import types
 from collections.abc import Sequence
 from typing import Annotated, Any, Union, get_args, get_origin
 
-from pydantic import BaseModel
+from pydantic import BaseModel, Tag
 
 from core.errors import PlanningError
 
@@ -56,6 +56,10 @@ def _tagged(member: Any, tag: str) -> bool:
     """Whether pydantic's union tag ``tag`` names ``member``: its class name (``str``,
     ``InlineRobot``) or a value of one of its ``Literal`` fields (a discriminator, ``ptp``)."""
     if getattr(member, "__name__", None) == tag:
+        return True
+    if get_origin(member) is Annotated and any(
+        isinstance(m, Tag) and m.tag == tag for m in get_args(member)[1:]
+    ):  # a member of a union with a callable discriminator (``Tag("rows")``)
         return True
     if isinstance(member, type) and issubclass(member, BaseModel):
         return any(tag in get_args(f.annotation) for f in member.model_fields.values())

@@ -47,11 +47,19 @@ REQUEST_EXAMPLES: dict[str, dict[str, dict[str, Any]]] = {
     "forward_kinematics": {
         "ur5": _example("UR5 at its home", {"positions": UR5_HOME}),
         "frames": _example("Every link frame too", {"positions": UR5_HOME, "frames": True}),
+        "rows": _example(
+            "Many configurations in one request: one answer per row",
+            {"positions": [UR5_HOME, [0.3, -1.2, 1.8, -2.2, -1.3, 0.4]], "frames": True},
+        ),
     },
     "forward_kinematics_inline": {
         "planar": _example(
             "The planar arm, named in the body",
             {"robot": "planar_2r", "positions": [0, 1.5707963267948966]},
+        ),
+        "rows": _example(
+            "Both elbows of the planar arm in one request",
+            {"robot": "planar_2r", "positions": [[0, 1.5707963267948966], [0.5, -1.0]]},
         ),
     },
     "inverse_kinematics": {

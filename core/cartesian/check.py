@@ -54,12 +54,14 @@ def finish(
     ``min_singular_value`` set."""
     check_limits(task.robot, result.trajectory, s)
     deviation = measure(task, result.trajectory)
-    flip = check_labels(task, result.trajectory, s, deviation)
+    flip = check_labels(task, result.trajectory, s, deviation) if task.keep_configuration else None
     if flip is not None:
         if not task.allow_violations:
             raise flip
         result = replace(result, warnings=(*result.warnings, f"{flip} (allow_violations)"))
-    sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
+    sv = result.singular_values  # (a method that computed them at the returned points)
+    if sv is None or len(sv) != len(result.trajectory.times):
+        sv = min_singular_values(task.robot, result.trajectory.positions, task.deadline)
     return replace(
         result, deviation=deviation, singular_values=sv, min_singular_value=float(sv.min())
     )

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
 from core.budget import NO_DEADLINE, Deadline
+from core.cartesian.path_rates import smallest_singular_values
 from core.kinematics import Kinematics, jacobians, task_rows
 from core.path.base import Path, PathDeviation
 from core.trajectory import Trajectory
@@ -88,13 +89,15 @@ def measure_deviation(
     t = dense_times(traj.times, checks)
     q_lin = interpolate_linear(traj.times, traj.positions, t)
     q_herm = CubicHermiteSpline(traj.times, traj.positions, traj.velocities, axis=0)(t)
-    devs = [
-        line.deviation(kin.fk_many(q), position_tolerance, orientation_tolerance)
-        for q in (q_lin, q_herm)
-    ]
-    worst = 0 if np.max(devs[0].position) >= np.max(devs[1].position) else 1
-    position = np.maximum(devs[0].position, devs[1].position)
-    orientation = np.maximum(devs[0].orientation, devs[1].orientation)
+    # both interpolations in one FK and one deviation call (half the per-call overhead)
+    both = line.deviation(
+        kin.fk_many(np.concatenate([q_lin, q_herm])), position_tolerance, orientation_tolerance
+    )
+    m = len(t)
+    lin_pos, herm_pos = both.position[:m], both.position[m:]
+    worst_s = both.s[:m] if lin_pos.max() >= herm_pos.max() else both.s[m:]
+    position = np.maximum(lin_pos, herm_pos)
+    orientation = np.maximum(both.orientation[:m], both.orientation[m:])
     n = len(traj.times)
     per = checks + 1
     seg_pos = _segment_max(position, n, per)
@@ -105,7 +108,7 @@ def measure_deviation(
         segment_position=seg_pos,
         segment_orientation=seg_ori,
         times=t,
-        s=devs[worst].s,
+        s=worst_s,
         position=position,
         orientation=orientation,
     )
@@ -139,7 +142,7 @@ def min_singular_values(
     for i in range(0, len(positions), MEASURE_CHUNK):
         deadline.check("singular values along the trajectory")
         J = jacobians(robot, positions[i : i + MEASURE_CHUNK])[:, rows]
-        out.append(np.linalg.svd(J, compute_uv=False)[:, -1])
+        out.append(smallest_singular_values(J))
     return np.concatenate(out)
 
 
@@ -214,12 +217,14 @@ def interval_excess(
         j = min(i + MEASURE_CHUNK, n - 1) + 1
         times, positions = traj.times[i:j], traj.positions[i:j]
         t = dense_times(times, DEFAULT_CHECKS)
-        excess = np.zeros(len(t))
-        for q in (
-            interpolate_linear(times, positions, t),
-            CubicHermiteSpline(times, positions, traj.velocities[i:j], axis=0)(t),
-        ):
-            dev = strict_deviation(kin, line, q, tol_p, tol_o)
-            excess = np.maximum(excess, np.maximum(dev.position / tol_p, dev.orientation / tol_o))
+        q = np.concatenate(
+            [
+                interpolate_linear(times, positions, t),
+                CubicHermiteSpline(times, positions, traj.velocities[i:j], axis=0)(t),
+            ]
+        )
+        dev = strict_deviation(kin, line, q, tol_p, tol_o)
+        both = np.maximum(dev.position / tol_p, dev.orientation / tol_o)
+        excess = np.maximum(both[: len(t)], both[len(t) :])
         out.append(_segment_max(excess, j - i, per))
     return np.concatenate(out)

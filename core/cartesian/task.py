@@ -77,6 +77,10 @@ class CartesianTask:
             the start before planning, then the returned motion, continuously); the same object as
             ``clearance`` when the request has an environment, else the robot's self pairs only.
             None: nothing to check.
+        keep_configuration: The trajectory keeps the start's configuration label (default). False
+            lets the rate controllers pass a wrist singularity (the label changes, reported in
+            ``diagnostics["configuration_changes"]``); the other methods follow one IK branch
+            anyway.
         effort: Effort limits with the robot's dynamics (``core.cartesian.effort``: the plan is
             slowed until they hold; not with ``duration``), or None.
         dynamics: The robot's dynamics, for ``peak_effort`` (None: none known).
@@ -107,6 +111,7 @@ class CartesianTask:
     max_angular_acceleration: float | None = None
     clearance: Clearance | None = None
     collision_check: Clearance | None = None
+    keep_configuration: bool = True
     effort: Effort | None = None
     dynamics: Dynamics | None = None
     gravity: np.ndarray | None = None

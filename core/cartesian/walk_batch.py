@@ -20,8 +20,9 @@ from core.kinematics import SINGULAR_VALUE_THRESHOLD
 from core.path.base import Path
 
 
-def batch_walk(task: CartesianTask, line: Path) -> LineWalk | None:
-    """``walk_line``'s result on its default grid when the whole line passes (see the module
+def batch_walk(task: CartesianTask, line: Path, grid: np.ndarray | None = None) -> LineWalk | None:
+    """``walk_line``'s result on ``grid`` (increasing s from 0 to 1, at least as fine as the
+    default ``check_grid``, which is the default) when the whole line passes (see the module
     docstring), else None. Only for robots with a label and task space ``pose`` (the batched
     analytic IK); others get None at once."""
     robot = task.robot
@@ -29,7 +30,7 @@ def batch_walk(task: CartesianTask, line: Path) -> LineWalk | None:
     label = robot.configuration(q_start)
     if label is None or robot.task_space != "pose":
         return None
-    grid = check_grid(task, line)
+    grid = check_grid(task, line) if grid is None else grid
     path = robot.ik_many(line.poses(grid[1:]), q_start, label)
     if not np.all(path.within_limits):
         return None

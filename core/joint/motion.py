@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from core.errors import InputError
 from core.limits import joint_vector
@@ -32,12 +33,12 @@ class PointToPoint:
     @classmethod
     def create(
         cls,
-        start_positions: object,
-        goal_positions: object,
-        start_velocities: object = None,
-        goal_velocities: object = None,
-        start_accelerations: object = None,
-        goal_accelerations: object = None,
+        start_positions: ArrayLike,
+        goal_positions: ArrayLike,
+        start_velocities: ArrayLike | None = None,
+        goal_velocities: ArrayLike | None = None,
+        start_accelerations: ArrayLike | None = None,
+        goal_accelerations: ArrayLike | None = None,
     ) -> PointToPoint:
         """Validated move; missing rates are zero. ``InputError`` names the field at fault."""
         dof = int(np.size(start_positions))

@@ -2,13 +2,16 @@
 
 ``plan_retime`` is the one core call of ``POST /v1/trajectories/retime``: it checks the waypoints,
 builds the path (``PATHS``: ``spline`` or ``blended``), checks it against the position limits
-densely, times it with ``core.timing.topp.time_optimal`` under the joint, tool and effort limits,
-and samples it. Every returned point lies on the path; the returned times hold, around every grid
-time where s'' switches, two points ``MIN_SPACING`` apart with the switch exactly between them (so
-integrating the returned accelerations between consecutive points by the trapezoid rule gives the
-returned velocities: the jump is integrated exactly, and no other point pair holds one), merged
-with the requested sampling (other points closer than ``MIN_SPACING`` are one). The peaks it reports are measured on the returned motion at ``DENSE`` points between
-consecutive returned points as well as at them. Units: [rad or m], [s].
+densely, times it with ``core.timing.topp.time_optimal`` under the joint, tool and effort limits
+(with jerk limits, on a spline only, ``core.timing.path_jerk.jerk_limited``), and samples it.
+Every returned point lies on the path; the returned times hold, around every grid time where s''
+switches, two points ``MIN_SPACING`` apart with the switch exactly between them (so integrating
+the returned accelerations between consecutive points by the trapezoid rule gives the returned
+velocities: the jump is integrated exactly, and no other point pair holds one), merged with the
+requested sampling (other points closer than ``MIN_SPACING`` are one; a jerk-limited motion's s''
+never jumps: no pairs). The peaks it reports are measured on the returned motion at ``DENSE``
+points between consecutive returned points as well as at them (a jerk-limited motion's jerk
+exactly, with its own dense check's peak). Units: [rad or m], [s].
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from core.kinematics import Clearance, Dynamics
 from core.limits import JointLimits, check_positions, outside
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import Effort, PathLimits, ToolSpeed
+from core.timing.path_jerk import JerkLimited, jerk_limited
 from core.timing.topp import TimeOptimal, time_optimal
 from core.trajectory import (
     MAX_POINTS,
@@ -55,21 +59,31 @@ PATHS: dict[str, Callable[[np.ndarray, float], JointPath]] = {
     "blended": lambda waypoints, deviation: BlendedPath(waypoints, deviation),
 }
 """Path shapes by name: (waypoints ``(n, dof)``, max_deviation) -> ``JointPath``."""
+JERK_PATHS = ("spline",)
+"""Path shapes that jerk limits apply to (continuous d2q/ds2, bounded d3q/ds3)."""
 
 
 @dataclass(frozen=True)
 class RetimePlan:
     """A retimed path: the sampled ``trajectory`` (its ``peaks`` measured densely), the
-    ``timing`` (``TimeOptimal``: binding limits, switch times), the ``path``, its ``path_length``
-    (joint-space arc length [rad or m]) and ``peak_effort`` ``(dof,)`` [N m or N] (None without
-    dynamics)."""
+    ``timing`` (``TimeOptimal``, or ``JerkLimited`` with jerk limits: binding limits, switch
+    times), the ``path``, its ``path_length`` (joint-space arc length [rad or m]),
+    ``peak_effort`` ``(dof,)`` [N m or N] (None without dynamics), the ``clearance`` report, and
+    ``time_optimal_duration`` [s] of the same path without jerk limits (None when the timing is
+    that one)."""
 
     trajectory: Trajectory
-    timing: TimeOptimal
+    timing: TimeOptimal | JerkLimited
     path: JointPath
     path_length: float
     peak_effort: np.ndarray | None
     clearance: ClearanceReport | None = None
+    time_optimal_duration: float | None = None
+
+    @property
+    def timing_name(self) -> str:
+        """``"jerk_limited"`` or ``"time_optimal"``: which timing the motion has."""
+        return "jerk_limited" if self.time_optimal_duration is not None else "time_optimal"
 
 
 def check_waypoints(waypoints: object, limits: JointLimits, names: tuple[str, ...]) -> np.ndarray:
@@ -135,26 +149,32 @@ def plan_retime(
     if limits.velocity is None or limits.acceleration is None:
         missing = "velocity" if limits.velocity is None else "acceleration"
         raise InputError(f"limits.{missing} is required without a robot", field=("limits", missing))
+    jerk = _jerk(limits, path)
     q = check_waypoints(waypoints, limits, names)
     check_ends(collision_check, (End("start", q[0], 0.0), End("goal", q[-1])))
     geometry = PATHS[path](q, float(max_deviation))
     _check_positions(geometry, limits, names)
-    timing = time_optimal(
-        geometry,
-        PathLimits(limits.velocity, limits.acceleration, tool=tool, effort=effort),
-        joint_names=names,
-        deadline=deadline,
-    )
+    path_limits = PathLimits(limits.velocity, limits.acceleration, tool=tool, effort=effort)
+    timing: TimeOptimal | JerkLimited
+    if jerk is None:
+        timing = time_optimal(geometry, path_limits, joint_names=names, deadline=deadline)
+    else:
+        timing = jerk_limited(geometry, path_limits, jerk, joint_names=names, deadline=deadline)
     deadline.check("retime")
     times = _times(timing, sample_period, samples, max_points)
     q_t, qd_t, qdd_t = timing.sample(times)
     qd_t[0] = qd_t[-1] = 0.0
     dense = times[:-1, None] + np.diff(times)[:, None] * np.arange(1, DENSE + 1) / (DENSE + 1)
     qd_d, qdd_d = timing.sample(dense.ravel())[1:]
+    if isinstance(timing, JerkLimited):
+        jerks = np.abs(timing.sample_jerk(np.concatenate([times, dense.ravel()])))
+        peak_jerk = np.maximum(jerks.max(axis=0), timing.peak_jerk)
+    else:
+        peak_jerk = sampled_peak_jerk(times, qdd_t)
     peaks = Peaks(
         np.maximum(np.abs(qd_t).max(axis=0), np.abs(qd_d).max(axis=0)),
         np.maximum(np.abs(qdd_t).max(axis=0), np.abs(qdd_d).max(axis=0)),
-        sampled_peak_jerk(times, qdd_t),
+        peak_jerk,
     )
     trajectory = Trajectory(times, q_t, qd_t, qdd_t, names, peaks)
     peak_effort = None
@@ -167,11 +187,30 @@ def plan_retime(
         peak_effort = np.abs(tau).max(axis=0)
     report = checked(trajectory, collision_check)
     length = _arc_length(geometry, timing)
-    return RetimePlan(trajectory, timing, geometry, length, peak_effort, report)
+    optimal = timing.time_optimal_duration if isinstance(timing, JerkLimited) else None
+    return RetimePlan(trajectory, timing, geometry, length, peak_effort, report, optimal)
+
+
+def _jerk(limits: JointLimits, path: str) -> np.ndarray | None:
+    """The jerk limits to keep (None without any finite one); ``InputError`` at ``limits.jerk``
+    on a path whose curvature steps (a blended path's arcs meet its lines with a jump of d2q/ds2:
+    the jerk is unbounded there at any speed but zero)."""
+    if limits.jerk is None or not np.isfinite(limits.jerk).any():
+        return None
+    if path not in JERK_PATHS:
+        raise InputError(
+            "jerk limits need path spline: a blended path's curvature steps where an arc meets a "
+            "line, so the jerk there is unbounded at any speed but zero",
+            field=("limits", "jerk"),
+        )
+    return np.asarray(limits.jerk, dtype=float)
 
 
 def _times(
-    timing: TimeOptimal, sample_period: float | None, samples: int | None, max_points: int
+    timing: TimeOptimal | JerkLimited,
+    sample_period: float | None,
+    samples: int | None,
+    max_points: int,
 ) -> np.ndarray:
     """The requested sample times merged with a pair of times ``MIN_SPACING`` apart around every
     interior switch time of s'' (the switch exactly between them, so the trapezoid rule over the
@@ -224,7 +263,7 @@ def _check_positions(path: JointPath, limits: JointLimits, names: tuple[str, ...
         )
 
 
-def _arc_length(path: JointPath, timing: TimeOptimal) -> float:
+def _arc_length(path: JointPath, timing: TimeOptimal | JerkLimited) -> float:
     """Joint-space arc length [rad or m]: Gauss-Legendre (5 points) on every grid interval."""
     s = timing.profile.s
     nodes, weights = np.polynomial.legendre.leggauss(5)

@@ -1,6 +1,6 @@
 """What a collision-free motion search asks of the collision model: ``GroupClearance``.
 
-It is a ``core.clearance.Clearance`` (distances, thresholds, motion weights, continuous check,
+It is a ``core.kinematics.Clearance`` (distances, thresholds, motion weights, continuous check,
 close pairs) that can also answer for a few of its pairs at one configuration, cheaply: a sampling
 search evaluates tens of thousands of configurations, most of them for the one or two pairs whose
 motion bound is not yet proven (``core.motion.certify``). ``robots.validity.GroupedClearance``
@@ -10,11 +10,13 @@ the obstacles, or against the other links).
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from core.clearance import Clearance
+from core.kinematics import Clearance, PathCheck
 
 
 @runtime_checkable
@@ -36,6 +38,19 @@ class GroupClearance(Clearance, Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class _NothingChecked:
+    """The ``PathCheck`` of a motion with no pair to check: clear, no closest pair."""
+
+    contact: None = None
+    min_clearance: float = math.inf
+    closest: None = None
+    evaluations: int = 0
+
+
+NOTHING_CHECKED = _NothingChecked()
+
+
 class Unobstructed:
     """The clearance of a robot with nothing to collide with (no geometry, or no pair checked):
     no pairs, every configuration and segment clear."""
@@ -48,8 +63,8 @@ class Unobstructed:
     def distances(self, qs: np.ndarray) -> np.ndarray:
         return np.zeros((len(np.atleast_2d(qs)), 0))
 
-    def check_path(self, times: np.ndarray, qs: np.ndarray) -> object:
-        return None
+    def check_path(self, times: np.ndarray, qs: np.ndarray) -> PathCheck:
+        return NOTHING_CHECKED
 
     def close_pairs(
         self, q: np.ndarray, d_influence: float

@@ -18,7 +18,6 @@ in the circle's plane, ``theta`` the swept angle [rad]. Orientation: the same sl
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from core.errors import InputError
 from core.geometry import so3
@@ -132,10 +131,6 @@ class Arc(PosesFromParts):
         radial = np.cos(phi)[:, None] * self.u + np.sin(phi)[:, None] * self.v
         along = -np.sin(phi)[:, None] * self.u + np.cos(phi)[:, None] * self.v
         return (self._radius(s) * self.theta)[:, None] * along + (self.r1 - self.r0) * radial
-
-    def rotations(self, s: np.ndarray) -> Rotation:
-        """Tool orientations at ``s`` (slerp on the shorter arc) as a scipy Rotation stack."""
-        return self._slerp.rotations(s)
 
     def rotation_matrices(self, s: np.ndarray) -> np.ndarray:
         """Tool orientation matrices (N, 3, 3) at ``s`` (N,)."""

@@ -207,7 +207,11 @@ def chunk_motion(
     if isinstance(timing, ProfileTiming) or len(timing.switch_times()):
         tau, q, qd, qdd = _exact(timing, tau)
         own = timing.peaks()
-        jerk = np.maximum(own.jerk, sampled_peak_jerk(tau, qdd)) if len(tau) > 1 else own.jerk
+        # over the returned times themselves (a difference of 1e-8 s is rounded differently in
+        # chunk time)
+        jerk = (
+            np.maximum(own.jerk, sampled_peak_jerk(tau + offset, qdd)) if len(tau) > 1 else own.jerk
+        )
         peaks = Peaks(own.velocity, own.acceleration, jerk)
         return ChunkMotion(offset, tau + offset, q, qd, qdd, peaks, None, timing)
     end = timing.duration

@@ -59,9 +59,10 @@ class Bounds:
     x_hi: np.ndarray
 
 
-def u_bounds(rows: IntervalRows) -> Bounds:
+def u_bounds(rows: IntervalRows, x_hi: np.ndarray | None = None) -> Bounds:
     """The affine u bounds of every row with a u term, and the x range where some u fits every
-    row (rows without a u term bound x directly). Ranges that are empty have ``x_lo > x_hi``."""
+    row (rows without a u term bound x directly; ``x_hi``: a known upper end of each range, such
+    as the range of fewer rows). Ranges that are empty have ``x_lo > x_hi``."""
     a, b, lo, up = rows.alpha, rows.beta, rows.lower, rows.upper
     has_u = np.abs(a) > 1e-14
     safe = np.where(has_u, a, 1.0)
@@ -83,12 +84,14 @@ def u_bounds(rows: IntervalRows) -> Bounds:
             bpos, lo / np.where(bpos, b, 1.0), np.where(bneg, up / np.where(bneg, b, 1.0), 0.0)
         )
     broken = (~has_u & (b == 0) & ((lo > 0) | (up < 0))).any(axis=1)
-    x_hi = np.minimum(np.nan_to_num(cap, nan=np.inf).min(axis=1), X_CAP)
-    x_lo = np.maximum(np.nan_to_num(floor, nan=0.0).max(axis=1), 0.0)
-    x_hi = np.where(rows.stops, np.minimum(x_hi, 0.0), x_hi)
-    x_hi = np.where(broken, -1.0, x_hi)
-    bounds = Bounds(p_lo, q_lo, p_up, q_up, x_lo, x_hi)
-    hi = _edge(bounds, x_hi, from_right=True)
+    x_top = np.fmin(np.fmin.reduce(cap, axis=1), X_CAP)  # fmin and fmax pass NaN over
+    x_lo = np.fmax(np.fmax.reduce(floor, axis=1), 0.0)
+    x_top = np.where(rows.stops, np.minimum(x_top, 0.0), x_top)
+    x_top = np.where(broken, -1.0, x_top)
+    if x_hi is not None:
+        x_top = np.minimum(x_top, x_hi)
+    bounds = Bounds(p_lo, q_lo, p_up, q_up, x_lo, x_top)
+    hi = _edge(bounds, x_top, from_right=True)
     lo = _edge(bounds, np.minimum(x_lo, np.maximum(hi, 0.0)), from_right=False)
     return Bounds(p_lo, q_lo, p_up, q_up, lo, np.where(lo <= hi, hi, -1.0))
 
@@ -126,28 +129,30 @@ def _edge(b: Bounds, x: np.ndarray, from_right: bool) -> np.ndarray:
 
 
 def _keep(
-    a: np.ndarray, b: np.ndarray, top: np.ndarray, minimum: bool
+    a: np.ndarray, b: np.ndarray, top: np.ndarray, sign: np.ndarray
 ) -> list[list[tuple[float, float]]]:
     """Per row of ``(N, R)`` lines ``a X + b`` on X in [0, ``top``] ``(N,)``, the lines that are
-    the lowest (``minimum``) or the highest somewhere there, as Python pairs for scalar loops.
-    Exact: a line below the lower envelope somewhere is below it at the envelope's one kink
-    between the lowest lines at both ends (the difference is convex)."""
+    the lowest (``sign`` +1 for the row) or the highest (-1) somewhere there, as Python pairs for
+    scalar loops. Exact: a line below the lower envelope somewhere is below it at the envelope's
+    one kink between the lowest lines at both ends (the difference is convex)."""
     cols = np.isfinite(b).any(axis=0)
     a, b = a[:, cols], b[:, cols]
-    sa, sb = (a, b) if minimum else (-a, -b)
     n, r = a.shape
     if r == 0:
         return [[] for _ in range(n)]
+    sa, sb = a * sign[:, None], b * sign[:, None]
     rows = np.arange(n)
     with np.errstate(invalid="ignore", over="ignore"):
         end = sa * top[:, None] + sb
         i0, i1 = sb.argmin(axis=1), end.argmin(axis=1)
         a0, b0, a1, b1 = sa[rows, i0], sb[rows, i0], sa[rows, i1], sb[rows, i1]
         cross = np.where(a0 != a1, (b1 - b0) / np.where(a0 != a1, a0 - a1, 1.0), 0.0)
-        xc = np.clip(np.nan_to_num(cross, nan=0.0), 0.0, top)
+        xc = np.clip(np.where(np.isnan(cross), 0.0, cross), 0.0, top)
         env = np.minimum(a0 * xc + b0, a1 * xc + b1)
         below = sa * xc[:, None] + sb < env[:, None] - 1e-12 * np.abs(env[:, None])
-    keep = below | (np.arange(r) == i0[:, None]) | (np.arange(r) == i1[:, None])
+    keep = below
+    keep[rows, i0] = True
+    keep[rows, i1] = True
     keep &= np.isfinite(b)
     counts = keep.sum(axis=1)
     pairs = list(zip(a[keep].tolist(), b[keep].tolist(), strict=True))
@@ -184,17 +189,33 @@ class Reachability:
         """New ``rows`` (the whole grid) that differ from the last ones on intervals ``changed``."""
         if changed.size == 0:
             return
+        if rows.alpha.shape[1] > self.bounds.p_lo.shape[1]:
+            self._widen(rows.alpha.shape[1] - self.bounds.p_lo.shape[1])
         sub = IntervalRows(
             *(
                 getattr(rows, f)[changed]
                 for f in ("alpha", "beta", "lower", "upper", "delta", "stops")
             )
         )
-        fresh = u_bounds(sub)
+        fresh = u_bounds(sub, self.bounds.x_hi[changed])  # rows were only added
         for name in Bounds.__dataclass_fields__:
             getattr(self.bounds, name)[changed] = getattr(fresh, name)
-        self._prepare(np.unique(np.concatenate([changed, changed - 1]).clip(0)))
+        self._prepare(changed)  # the lines kept before them still hold a superset
         self._changed = np.unique(np.concatenate([self._changed, changed, (changed - 1).clip(0)]))
+
+    def _widen(self, extra: int) -> None:
+        """Room for ``extra`` more rows per interval (rows added by a caller), none binding yet."""
+        n = len(self.delta)
+
+        def pad(a: np.ndarray, value: float) -> np.ndarray:
+            return np.concatenate([a, np.full((n, extra), value)], axis=1)
+
+        b = self.bounds
+        inf = np.inf
+        self.bounds = Bounds(pad(b.p_lo, -inf), pad(b.q_lo, 0.0), pad(b.p_up, inf),
+                             pad(b.q_up, 0.0), b.x_lo, b.x_hi)  # fmt: skip
+        self._up_l, self._up_c = pad(self._up_l, 0.0), pad(self._up_c, inf)
+        self._lo_l, self._lo_c = pad(self._lo_l, 0.0), pad(self._lo_c, -inf)
 
     def _prepare(self, idx: np.ndarray) -> None:
         b, n = self.bounds, len(self.delta)
@@ -208,28 +229,47 @@ class Reachability:
             up = s1 > flat
             a = np.where(up, w / np.where(up, s1, 1.0), 0.0)
             c = np.where(up, -p_lo / np.where(up, s1, 1.0), np.inf)
-            self._store("up_h", idx, _keep(a, c, nxt, minimum=True))
+            up_h = (a, c)
             down = s1 < -flat  # rare: only where a joint turns around inside the interval
             some = down.any(axis=1)
             self._store("lo_h", idx, [[]] * len(idx))
             if some.any():
                 a = np.where(down, w / np.where(down, s1, 1.0), 0.0)[some]
                 c = np.where(down, -p_lo / np.where(down, s1, 1.0), -np.inf)[some]
-                self._store("lo_h", idx[some], _keep(a, c, nxt[some], minimum=False))
+                minus = -np.ones(int(some.sum()))
+                self._store("lo_h", idx[some], _keep(a, c, nxt[some], minus))
             # where x_i+1's set does not start at 0 (rare) these rows bound x_i too
-            self._up_l[idx] = np.where(s2 < -flat, w / np.where(s2 < -flat, s2, 1.0), 0.0)
-            self._up_c[idx] = np.where(s2 < -flat, -p_up / np.where(s2 < -flat, s2, 1.0), np.inf)
-            self._lo_l[idx] = np.where(s2 > flat, w / np.where(s2 > flat, s2, 1.0), 0.0)
-            self._lo_c[idx] = np.where(s2 > flat, -p_up / np.where(s2 > flat, s2, 1.0), -np.inf)
-        self._store("up_u", idx, _keep(q_up, p_up, here, minimum=True))
-        self._store("lo_u", idx, _keep(q_lo, p_lo, here, minimum=False))
+            neg, pos = s2 < -flat, s2 > flat
+            inv = 1.0 / np.where(neg | pos, s2, 1.0)
+            self._up_l[idx] = np.where(neg, w * inv, 0.0)
+            self._up_c[idx] = np.where(neg, -p_up * inv, np.inf)
+            self._lo_l[idx] = np.where(pos, w * inv, 0.0)
+            self._lo_c[idx] = np.where(pos, -p_up * inv, -np.inf)
+        # one pass for the three usual families: the lowest up_h and up_u, the highest lo_u
+        k = len(idx)
+        sign = np.concatenate([np.ones(2 * k), -np.ones(k)])
+        lists = _keep(
+            np.concatenate([up_h[0], q_up, q_lo]),
+            np.concatenate([up_h[1], p_up, p_lo]),
+            np.concatenate([nxt, here, here]),
+            sign,
+        )
+        self._store("up_h", idx, lists[:k])
+        self._store("up_u", idx, lists[k : 2 * k])
+        self._store("lo_u", idx, lists[2 * k :])
         # with x_i+1's set starting at 0 (the usual case) those rows are constants
         top0 = np.minimum(b.x_hi[idx], self._up_c[idx].min(axis=1)).tolist()
         bottom0 = np.maximum(b.x_lo[idx], self._lo_c[idx].max(axis=1)).tolist()
+        if len(idx) == n:
+            self._top0, self._bottom0 = top0, bottom0
+            return
         for i, t, lo_ in zip(idx.tolist(), top0, bottom0, strict=True):
             self._top0[i], self._bottom0[i] = t, lo_
 
     def _store(self, name: str, idx: np.ndarray, lists: list[list[tuple[float, float]]]) -> None:
+        if len(idx) == len(self.delta):  # every interval, in order
+            self.lines[name] = lists
+            return
         target = self.lines[name]
         for i, item in zip(idx.tolist(), lists, strict=True):
             target[i] = item

@@ -8,15 +8,17 @@ speed, effort; ``core.timing.path_constraints``): TOPP-RA's reachability analysi
 
 TOPP-RA keeps its limits at the grid points only; between them they can be exceeded (toppra 0.6.10
 by 7.5-56 % on joint accelerations, hungpham2511/toppra#150). Here every interval's limits are kept
-at both of its ends (x_i and x_i + 2 d_i u_i, TOPP-RA's "interpolation" discretization), then the
-answer is checked densely (``core.timing.dense_check``: samples in every interval, and at the path's
-joins, the peak between them estimated and, where it comes near the limit, found to ~1e-13). Where a peak
-exceeds its limit, that limit is tightened on that interval alone by the excess and the passes run
-again, until every peak is within ``TOLERANCE`` (the contract's 1e-9 relative) of its limit; if that
-does not converge in ``ROUNDS``, the whole profile is slowed uniformly until it is. The answer
-(``TimeOptimal``) is a ``Profile`` s(t) with constant s'' between grid times (``switch_times``), which
-samples q, q', q'' exactly (``sample``), reports which limit binds where (``binding``) and the
-duration of the untightened grid optimum (``grid_duration``).
+at both of its ends and at its midpoint (with x = x_i + 2 f d_i u_i at fraction f, a limit there is
+a row in (u_i, x_i)), then the answer is checked densely (``core.timing.dense_check``: samples in
+every interval and at the path's joins, the peak between them estimated and, where it comes near
+the limit, found to ~1e-13). Where a peak exceeds its limit, the limit at that very point is added
+to the interval's rows (a cut: exact, so nothing is given away) and the passes run again; once the
+largest excess is below ``FINISH``, the motion is slowed uniformly by it instead (s'^2 / lambda^2:
+rows without a constant term scale exactly, so no re-check is needed; with gravity in the effort
+rows the check runs again). Every peak ends within ``TOLERANCE`` (the contract's 1e-9 relative) of
+its limit. The answer (``TimeOptimal``) is a ``Profile`` s(t) with constant s'' between grid times
+(``switch_times``), which samples q, q', q'' exactly (``sample``), reports which limit binds where
+(``binding``) and the duration of the first grid optimum (``grid_duration``).
 """
 
 from __future__ import annotations
@@ -27,10 +29,10 @@ import numpy as np
 
 from core.budget import NO_DEADLINE, Deadline
 from core.errors import Infeasible
-from core.timing.dense_check import DENSE, Check, values
+from core.timing.dense_check import DENSE, Check, Peaks
 from core.timing.joint_path import JointPath
 from core.timing.path_constraints import PathLimits, Rows
-from core.timing.path_grid import PathSamples, one_sided, path_grid, sample_path, stops
+from core.timing.path_grid import NUDGE, PathSamples, one_sided, path_grid, sample_path, stops
 from core.timing.reachability import IntervalRows, Reachability
 from core.timing.speed_limited import GridTiming
 from core.trajectory import default_joint_names
@@ -38,9 +40,15 @@ from core.trajectory import default_joint_names
 TOLERANCE = 1e-9
 """Largest relative excess of a limit anywhere (velocity rows: of the squared velocity)."""
 AIM = 1e-11
-"""Relative margin a tightened limit leaves below the limit."""
-ROUNDS = 10
-"""Most rounds of tightening before the uniform slow-down."""
+"""Relative margin the finishing slow-down leaves below the limit."""
+FINISH = 3e-3
+"""Largest excess (relative) left to the finishing slow-down rather than to another round of
+cuts: it lengthens the motion by at most half of it (0.15 %)."""
+ROUNDS = 12
+"""Most rounds."""
+SETTLE = 4
+"""Rounds kept for the slow-down: from round ``ROUNDS - SETTLE`` on it finishes whatever the
+excess (slow-downs under effort limits, whose gravity part does not scale, may take two)."""
 
 
 @dataclass(frozen=True)
@@ -117,56 +125,66 @@ def time_optimal(
     start = limits.rows(*one_sided(path, s[:-1], grid.breaks[:-1], d, +1.0))
     end = limits.rows(*one_sided(path, s[1:], grid.breaks[1:], d, -1.0))
     check = Check.build(path, limits, s, start, end)
-    inner_s = s[check.parent][:, None] + np.diff(s)[check.parent][:, None] * (
-        check.lo[:, None] + (check.hi - check.lo)[:, None] * (np.arange(1, DENSE) / DENSE)
-    )
-    _gravity_check(limits, path, (start, end, check.inner), (s[:-1], s[1:], inner_s.ravel()), names)
+    _gravity_check(limits, path, check, s, names)
     deadline.check("time-optimal timing")
-    stop = stops(path, grid)
-    gamma = np.ones((len(d), len(h)))
+    middle = limits.rows(*sample_path(path, s[:-1] + 0.5 * d))
+    rows = _rows(((0.0, start), (0.5, middle), (1.0, end)), d, h, stops(path, grid))
+    passes = Reachability(rows)
     grid_duration = 0.0
-    worst = np.inf
-    last = np.full((2, len(d), len(h)), np.nan)  # ends and peak of the rows cut last round
-    passes = Reachability(_rows(start, end, d, h * gamma, stop))
-    changed = np.zeros(0, dtype=np.int64)
-    before: tuple[np.ndarray, np.ndarray] | None = None
-    for _ in range(ROUNDS):
-        passes.update(_rows(start, end, d, h * gamma, stop), changed)
-        x = _solve(passes, path, s)
+    before: tuple[np.ndarray, Peaks] | None = None
+    scale = 1.0  # lambda^2 of the slow-down that finishes
+    ranked = np.zeros((len(d), len(h)))  # the peaks of the last round without a slow-down
+    for round_ in range(ROUNDS):
+        x = _solve(passes, path, s) / scale
         if not grid_duration:
             grid_duration = GridTiming.from_speeds(s, np.sqrt(x)).duration
-        peak = check.peaks(path, limits, s, x, h, before)
-        before = (x, peak)
+        peaks = check.peaks(path, limits, s, x, h, before)
+        before = (x, peaks)
+        if scale == 1.0:
+            ranked = peaks.value
         deadline.check("time-optimal timing")
-        worst = float(peak.max(initial=0.0))
+        worst = float(peaks.value.max(initial=0.0))
         if worst <= 1.0 + TOLERANCE:
             break
-        over = peak > 1.0
-        ends = _end_ratios(start, end, x, d, h)
-        gamma[over] = _cut(ends[over], peak[over], last[0][over], last[1][over], gamma[over])
-        changed = np.flatnonzero(over.any(axis=1))
-        last[:] = np.nan
-        last[0][over], last[1][over] = ends[over], peak[over]
-    else:
-        x = _slow_down(x, d, start, h, worst)
-        worst = float(check.peaks(path, limits, s, x, h).max(initial=0.0))
-    binding = _binding(limits, start, end, x, d, h * gamma, s)
+        i, r = np.nonzero(peaks.value > 1.0 + AIM)
+        over = (i, r)
+        cut = _at_peaks(path, limits, s, over, peaks.at[over])
+        if worst <= 1.0 + FINISH or scale > 1.0 or round_ >= ROUNDS - SETTLE:
+            # close enough: the same motion, slower
+            lam2 = _slowdown(cut, x, d, h, over)
+            scale *= lam2
+            if check.C is None:  # every row scales with 1 / lam2: nothing left to check
+                x, worst = x / lam2, worst / lam2
+                break
+            continue
+        rows = _with_cuts(rows, cut, d, h, over)
+        passes.update(rows, np.unique(i))
+    else:  # pragma: no cover - the slow-downs settle within SETTLE rounds
+        raise Infeasible(f"the timing did not settle within its limits in {ROUNDS} rounds")
+    binding = _binding(limits, ranked, s)
     return TimeOptimal(path, s, x, binding, grid_duration, worst)
 
 
 def _rows(
-    start: Rows, end: Rows, d: np.ndarray, bound: np.ndarray, stop: np.ndarray
+    samples: tuple[tuple[float, Rows], ...], d: np.ndarray, bound: np.ndarray, stop: np.ndarray
 ) -> IntervalRows:
-    """Every interval's rows at both of its ends with bounds ``bound`` ``(N, m)``."""
-    w = 2.0 * d[:, None]
+    """Every interval's rows at the fractions of ``samples`` ((fraction, rows there) pairs: with
+    x = x_i + 2 f d_i u_i there, a limit there is a row in (u_i, x_i)), bounds ``bound``."""
     return IntervalRows(
-        alpha=np.concatenate([start.A, end.A + w * end.B], axis=1),
-        beta=np.concatenate([start.B, end.B], axis=1),
-        lower=np.concatenate([-bound - start.C, -bound - end.C], axis=1),
-        upper=np.concatenate([bound - start.C, bound - end.C], axis=1),
+        alpha=np.concatenate([r.A + (2.0 * f * d)[:, None] * r.B for f, r in samples], axis=1),
+        beta=np.concatenate([r.B for _, r in samples], axis=1),
+        lower=np.concatenate([_lower(r.A, r.B, r.C, bound) for _, r in samples], axis=1),
+        upper=np.concatenate([bound - r.C for _, r in samples], axis=1),
         delta=d,
         stops=stop[:-1],
     )
+
+
+def _lower(A: np.ndarray, B: np.ndarray, C: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """The lower bounds of rows ``-bound - C``, or -inf for rows that cannot go below 0 (B x,
+    B >= 0: a squared speed, since x >= 0 everywhere): bounds that never bind cost the passes
+    a line each."""
+    return np.where((A == 0.0) & (C == 0.0) & (B >= 0.0), -np.inf, -bound - C)
 
 
 def _solve(passes: Reachability, path: JointPath, s: np.ndarray) -> np.ndarray:
@@ -181,78 +199,92 @@ def _solve(passes: Reachability, path: JointPath, s: np.ndarray) -> np.ndarray:
         ) from e
 
 
-def _cut(
-    ends: np.ndarray, peak: np.ndarray, ends_before: np.ndarray, peak_before: np.ndarray,
-    gamma: np.ndarray,
-) -> np.ndarray:  # fmt: skip
-    """New bounds (as fractions of the limit) for rows whose interior ``peak`` exceeds the limit
-    while their ``ends`` keep it: lower the ends by the excess divided by how much the peak follows
-    the ends (a secant from the previous round's cut of the same row; 0.5 at first: the peak
-    follows by less than 1:1 where the neighbours' limits set the interval's u, measured 0.3-0.7)."""
+def _at_peaks(
+    path: JointPath, limits: PathLimits, s: np.ndarray, over: tuple[np.ndarray, np.ndarray],
+    at: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """The interval fractions (a hair inside the interval) and A, B, C of the rows ``over`` =
+    (interval, row) at their peaks ``at``, each ``(C,)``."""
+    i, r = over
+    g = np.clip(at, NUDGE, 1.0 - NUDGE)
+    rows = limits.rows(*sample_path(path, s[i] + g * (s[i + 1] - s[i])))
+    pick = np.arange(len(i))
+    return g, rows.A[pick, r], rows.B[pick, r], rows.C[pick, r]
+
+
+def _with_cuts(
+    rows: IntervalRows, cut: tuple[np.ndarray, ...], d: np.ndarray, h: np.ndarray,
+    over: tuple[np.ndarray, np.ndarray],
+) -> IntervalRows:  # fmt: skip
+    """``rows`` with one more row per (interval, row) ``over``: the limit at its peak ``cut``
+    (columns added as needed; intervals without a new row get rows that bind nothing)."""
+    i, r = over
+    g, A, B, C = cut
+    first = np.concatenate([[True], i[1:] != i[:-1]])  # ``over`` is sorted by interval
+    rank = np.arange(len(i)) - np.flatnonzero(first)[np.cumsum(first) - 1]
+    n, wide = len(d), int(rank.max()) + 1
+    alpha, beta = np.zeros((n, wide)), np.zeros((n, wide))
+    lower, upper = np.full((n, wide), -np.inf), np.full((n, wide), np.inf)
+    alpha[i, rank] = A + 2.0 * g * d[i] * B
+    beta[i, rank] = B
+    lower[i, rank], upper[i, rank] = _lower(A, B, C, h[r]), h[r] - C
+    return IntervalRows(
+        alpha=np.concatenate([rows.alpha, alpha], axis=1),
+        beta=np.concatenate([rows.beta, beta], axis=1),
+        lower=np.concatenate([rows.lower, lower], axis=1),
+        upper=np.concatenate([rows.upper, upper], axis=1),
+        delta=rows.delta,
+        stops=rows.stops,
+    )
+
+
+def _slowdown(
+    cut: tuple[np.ndarray, ...], x: np.ndarray, d: np.ndarray, h: np.ndarray,
+    over: tuple[np.ndarray, np.ndarray],
+) -> float:  # fmt: skip
+    """The factor lambda^2 >= 1 by which x must shrink (the motion slowed by lambda) so that
+    every row ``over`` keeps its limit at its peak ``cut``: the moving part A u + B x of a row
+    scales by 1/lambda^2, its constant part (gravity) not."""
+    i, r = over
+    g, A, B, C = cut
+    u = (x[i + 1] - x[i]) / (2.0 * d[i])
+    moving = A * u + B * (x[i] + 2.0 * g * d[i] * u)
     with np.errstate(divide="ignore", invalid="ignore"):
-        slope = (peak_before - peak) / (ends_before - ends)
-    slope = np.where(np.isfinite(slope) & (slope > 0.05), np.minimum(slope, 1.5), 0.5)
-    target = np.minimum(gamma, ends) - (peak - 1.0 + AIM) / slope
-    return np.maximum(target, 0.5 * np.minimum(gamma, ends)) * (1.0 - AIM)
-
-
-def _end_ratios(start: Rows, end: Rows, x: np.ndarray, d: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """Every row's value over ``h`` at the ends of every interval, the larger of the two ``(N, m)``."""
-    u = np.diff(x) / (2.0 * d)
-    return np.maximum(values(start, u, x[:-1]), values(end, u, x[1:])) / h
-
-
-def _slow_down(
-    x: np.ndarray, d: np.ndarray, start: Rows, h: np.ndarray, worst: float
-) -> np.ndarray:
-    """x scaled by 1/lambda^2 (the same motion, slower) so that every limit holds: rows without a
-    constant term scale with x; effort rows are solved for lambda at every sample."""
-    lam2 = max(worst, 1.0) * (1.0 + 4.0 * AIM)
-    u = np.diff(x) / (2.0 * d)
-    moving = start.A * u[:, None] + start.B * x[:-1, None]
-    c = start.C
-    with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.where(moving > 0, moving / (h - c), moving / (-h - c))
-    lam2 = max(lam2, float(np.nan_to_num(need, nan=0.0, posinf=0.0).max()) * (1.0 + 4.0 * AIM))
-    return x / lam2
+        need = np.where(moving > 0, moving / (h[r] - C), moving / (-h[r] - C))
+    need = np.nan_to_num(need, nan=1.0, posinf=1.0, neginf=1.0)
+    return max(1.0, float(need.max(initial=1.0))) * (1.0 + AIM)
 
 
 def _gravity_check(
-    limits: PathLimits,
-    path: JointPath,
-    rows: tuple[Rows, ...],
-    at: tuple[np.ndarray, ...],
-    names: tuple[str, ...],
+    limits: PathLimits, path: JointPath, check: Check, s: np.ndarray, names: tuple[str, ...]
 ) -> None:
-    """``Infeasible`` naming the joint and ``s`` where gravity alone exceeds an effort limit."""
-    if limits.effort is None:
+    """``Infeasible`` naming the joint and ``s`` where gravity alone exceeds an effort limit (at
+    the first dense-check sample where it does)."""
+    if limits.effort is None or check.C is None:
         return
     h = limits.bounds
-    effort = np.array([kind == "effort" for kind, _ in limits.labels()])
     labels = limits.labels()
-    for r, s in zip(rows, at, strict=True):
-        over = (np.abs(r.C) > h) & effort
-        if over.any():
-            k, j = (int(v) for v in np.argwhere(over)[0])
-            joint = labels[j][1]
-            frac = float(s[k] / path.length)
-            raise Infeasible(
-                f"gravity alone exceeds the effort limit of joint {names[joint or 0]} at "
-                f"s={frac:.6g}",
-                s=frac,
-                joint=joint,
-                extra={"limit": "effort"},
-            )
+    effort = np.array([kind == "effort" for kind, _ in labels])
+    over = (np.abs(check.C) > h) & effort
+    if not over.any():
+        return
+    piece, k, j = (int(v) for v in np.argwhere(over)[0])
+    i = int(check.parent[piece])
+    f = check.lo[piece] + (check.hi[piece] - check.lo[piece]) * k / DENSE
+    frac = float((s[i] + f * (s[i + 1] - s[i])) / path.length)
+    joint = labels[j][1]
+    raise Infeasible(
+        f"gravity alone exceeds the effort limit of joint {names[joint or 0]} at s={frac:.6g}",
+        s=frac,
+        joint=joint,
+        extra={"limit": "effort"},
+    )
 
 
-def _binding(
-    limits: PathLimits, start: Rows, end: Rows, x: np.ndarray, d: np.ndarray,
-    bound: np.ndarray, s: np.ndarray,
-) -> tuple[Binding, ...]:  # fmt: skip
-    """Per interval the row nearest its (tightened) bound at the interval's ends (an interval
-    where none binds takes the next interval's), as stretches; stretches shorter than 1/200 of
-    the path join the one before."""
-    ratio = _end_ratios(start, end, x, d, bound)
+def _binding(limits: PathLimits, ratio: np.ndarray, s: np.ndarray) -> tuple[Binding, ...]:
+    """Per interval the row with the largest peak over its bound ``ratio`` ``(N, m)`` if it is
+    at the limit (an interval where none is takes the next interval's), as stretches;
+    stretches shorter than 1/200 of the path join the one before."""
     row = np.where(ratio.max(axis=1) >= 1.0 - 1e-6, ratio.argmax(axis=1), -1)
     # an interval bound by none of its own rows is on its way to the next one's limit
     known = np.flatnonzero(row >= 0)

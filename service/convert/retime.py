@@ -1,10 +1,12 @@
 """``POST /v1/trajectories/retime``: request -> ``core.joint.retime.plan_retime`` inputs, and the
-plan's diagnostics (``timing``, ``binding``, ``path_length``, ``peak_effort``).
+plan's diagnostics (``timing``, ``binding``, ``path_length``, ``peak_effort``,
+``time_optimal_duration``).
 
 Limits as for the other joint-space routes (``service.convert.joint.joint_limits``: the request's
 lists replace the robot's, position limits from the robot); without a robot velocity and
-acceleration limits are required (core names the field). Tool speed limits need a robot (422
-``validation`` at the field); effort limits a robot with dynamics (``service.convert.dynamics``).
+acceleration limits are required (core names the field); jerk limits only as the request gives them
+(core checks the path kind). Tool speed limits need a robot (422 ``validation`` at the field);
+effort limits a robot with dynamics (``service.convert.dynamics``).
 """
 
 from __future__ import annotations
@@ -48,11 +50,6 @@ def retime_inputs(body: RetimeRequest) -> RetimeInputs:
                 f"waypoints.{i} needs {dof} values like waypoints.0", field=("waypoints", i)
             )
     robot, names = robot_and_names(body.robot, dof, ("waypoints", 0))
-    if body.limits is not None and body.limits.jerk is not None:
-        raise InputError(
-            "retime does not limit jerk; give velocity, acceleration and effort limits",
-            field=("limits", "jerk"),
-        )
     tool = None
     for name in ("max_linear_speed", "max_angular_speed"):
         if getattr(body, name) is not None and robot is None:
@@ -60,7 +57,10 @@ def retime_inputs(body: RetimeRequest) -> RetimeInputs:
     if robot is not None and (body.max_linear_speed or body.max_angular_speed) is not None:
         tool = ToolSpeed(tool_rates(robot), body.max_linear_speed, body.max_angular_speed)
     limits = joint_limits(body.limits, robot)
-    limits = JointLimits(limits.velocity, limits.acceleration, limits.position)
+    # jerk only when the request gives it (a robot's published jerk limits do not switch the
+    # timing from time-optimal to jerk-limited)
+    jerk = None if body.limits is None or body.limits.jerk is None else limits.jerk
+    limits = JointLimits(limits.velocity, limits.acceleration, limits.position, jerk)
     return RetimeInputs(
         np.asarray(body.waypoints, dtype=float),
         limits,
@@ -76,10 +76,11 @@ def retime_inputs(body: RetimeRequest) -> RetimeInputs:
 
 def retime_diagnostics(plan: RetimePlan) -> dict[str, Any]:
     """``timing``, ``binding`` (stretches of the path, as fractions of its length, and the limit
-    that binds there), ``path_length`` [rad or m], ``grid_points`` and ``peak_effort``."""
+    that binds there), ``path_length`` [rad or m], ``grid_points`` and ``peak_effort``; with jerk
+    limits ``time_optimal_duration`` [s] too."""
     names = plan.trajectory.joint_names
     out: dict[str, Any] = {
-        "timing": "time_optimal",
+        "timing": plan.timing_name,
         "binding": [
             {
                 "s": [round(b.start, 6), round(b.end, 6)],
@@ -89,8 +90,10 @@ def retime_diagnostics(plan: RetimePlan) -> dict[str, Any]:
             for b in plan.timing.binding
         ],
         "path_length": plan.path_length,
-        "grid_points": len(plan.timing.switch_times),
+        "grid_points": len(plan.timing.profile.s),
     }
+    if plan.time_optimal_duration is not None:
+        out["time_optimal_duration"] = plan.time_optimal_duration
     if plan.peak_effort is not None:
         out["peak_effort"] = plan.peak_effort
     return out

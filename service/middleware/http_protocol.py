@@ -85,7 +85,7 @@ async def service_unavailable(scope: Scope, receive: Receive, send: Send) -> Non
 
 # uvicorn looks the over-limit app up by this module-level name on each request; ours answers the
 # same 503, in problem+json like every other error of the service.
-h11_impl.service_unavailable = service_unavailable
+h11_impl.service_unavailable = service_unavailable  # type: ignore[assignment]  # an ASGI app
 
 
 class ServiceHTTPProtocol(H11Protocol):  # type: ignore[misc]

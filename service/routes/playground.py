@@ -1,7 +1,9 @@
-"""GET /: the playground page, and GET /static/{name}: its script, style sheet and Plotly.
+"""GET /: the playground page; GET /static/js/{name}: its ES modules; GET /static/{name}: its style
+sheet and Plotly.
 
-The page is plain HTML + JavaScript (no build step) in ``service/static/``; it calls only the public
-API (``/v1/...``), like any client. Plotly is a vendored ``plotly.min.js`` (``service/static/vendor/``,
+The page is plain HTML + JavaScript ES modules (no build step) in ``service/static/`` (the modules
+in ``service/static/js/``, served as ``text/javascript``, which module scripts require); it calls
+only the public API (``/v1/...`` and ``/openapi.json``), like any client. Plotly is a vendored ``plotly.min.js`` (``service/static/vendor/``,
 whose README gives its version and license), served from here: the page needs no CDN and works in
 a container without internet. The Content-Security-Policy of the page allows this origin only, so a
 script or request to any other host would be blocked, not silently fetched.
@@ -17,6 +19,8 @@ from fastapi.responses import FileResponse
 router = APIRouter(include_in_schema=False)
 
 STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+MODULES_DIR = STATIC_DIR / "js"
+"""The page's ES modules (entry ``main.js``): each imports the others by relative URL."""
 MEDIA_TYPES = {
     ".html": "text/html; charset=utf-8",
     ".js": "text/javascript; charset=utf-8",
@@ -54,10 +58,19 @@ def plotly() -> FileResponse:
     return _file(PLOTLY_JS)
 
 
-@router.get("/static/{name}", summary="The playground's script and style sheet")
-def static(name: str) -> FileResponse:
-    # Only the files shipped in service/static/, by exact name: no paths, no traversal.
-    allowed = {p.name: p for p in STATIC_DIR.iterdir() if p.suffix in (".js", ".css")}
+def _shipped(folder: Path, name: str, suffixes: tuple[str, ...]) -> FileResponse:
+    """A file shipped in ``folder``, by exact name: no paths, no traversal; else 404."""
+    allowed = {p.name: p for p in folder.iterdir() if p.is_file() and p.suffix in suffixes}
     if name not in allowed:
         raise HTTPException(404, "no such static file")
     return _file(allowed[name])
+
+
+@router.get("/static/js/{name}", summary="The playground's ES modules")
+def module(name: str) -> FileResponse:
+    return _shipped(MODULES_DIR, name, (".js",))
+
+
+@router.get("/static/{name}", summary="The playground's style sheet")
+def static(name: str) -> FileResponse:
+    return _shipped(STATIC_DIR, name, (".js", ".css"))

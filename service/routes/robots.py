@@ -4,8 +4,11 @@ solution, configuration labels), and the same for inline robots (POST /v1/fk, /v
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from fastapi import APIRouter, Depends, Path
+from starlette.responses import Response
 
 from core.budget import Deadline
 from core.errors import InputError, JointLimit, Unreachable
@@ -16,12 +19,15 @@ from robots.collision import link_shapes, robot_setup
 from robots.model import Robot
 from service import deps
 from service.convert.environment import inline_urdf
+from service.convert.fk import fk_rows
 from service.convert.robot import robot_positions, with_tool
+from service.encoding import json_response
 from service.schemas.common import PROBLEM_RESPONSES, Pose
 from service.schemas.robots import (
     NAME_PATTERN,
     CollisionShape,
     DescribeRequest,
+    FKBatchResponse,
     FKRequest,
     FKResponse,
     IKAllResponse,
@@ -119,9 +125,12 @@ def get_robot(name: str = RobotName) -> RobotDetail:
     return _detail(registry.get(name))
 
 
-def _fk(robot: Robot, body: FKRequest) -> FKResponse:
+def _fk(robot: Robot, body: FKRequest, deadline: Deadline) -> FKResponse | Response:
     robot = with_tool(robot, body.tool)
-    q = robot_positions(robot, body.positions, ("positions",))
+    if isinstance(body.positions[0], list):  # many rows: one answer each (service.convert.fk)
+        rows = cast(list[list[float]], body.positions)
+        return json_response({"results": fk_rows(robot, rows, body.frame, body.frames, deadline)})
+    q = robot_positions(robot, cast(list[float], body.positions), ("positions",))
     if body.frame is None:
         T, J = robot.fk(q), robot.jacobian(q)
     else:
@@ -147,22 +156,29 @@ def _fk(robot: Robot, body: FKRequest) -> FKResponse:
 
 @router.post(
     "/v1/robots/{name}/fk",
-    response_model=FKResponse,
+    response_model=FKResponse | FKBatchResponse,
     responses=PROBLEM_RESPONSES,
-    summary="Forward kinematics: pose, Jacobian, singular values, configuration label",
+    summary="Forward kinematics of one or many joint positions: pose, Jacobian, singular values, "
+    "configuration label",
 )
-def forward_kinematics(body: FKRequest, name: str = RobotName) -> FKResponse:
-    return _fk(registry.get(name), body)
+def forward_kinematics(
+    body: FKRequest,
+    name: str = RobotName,
+    deadline: Deadline = Depends(deps.request_deadline),
+) -> FKResponse | Response:
+    return _fk(registry.get(name), body, deadline)
 
 
 @router.post(
     "/v1/fk",
-    response_model=FKResponse,
+    response_model=FKResponse | FKBatchResponse,
     responses=PROBLEM_RESPONSES,
     summary="Forward kinematics of any robot (registered name or inline URDF in the body)",
 )
-def forward_kinematics_inline(body: InlineFKRequest) -> FKResponse:
-    return _fk(registry.resolve(body.robot), body)
+def forward_kinematics_inline(
+    body: InlineFKRequest, deadline: Deadline = Depends(deps.request_deadline)
+) -> FKResponse | Response:
+    return _fk(registry.resolve(body.robot), body, deadline)
 
 
 def _ik(robot: Robot, body: IKRequest, deadline: Deadline) -> IKResponse | IKAllResponse:

@@ -219,6 +219,14 @@ class CartesianTaskSpec(StrictModel):
         "a joint's acceleration limit (the warnings say where and by how much). Default: such a "
         "plan is 422 (infeasible or joint_rate_limit) naming the cause and what to change.",
     )
+    keep_configuration: bool = Field(
+        default=True,
+        description="true (default): the trajectory keeps the start's configuration label (a "
+        "branch change is 422 branch_flip). false: resolved_rate and resolved_rate_dls may pass a "
+        "wrist singularity (the DLS damps through it, rates bounded); "
+        "diagnostics.configuration_changes lists each change as {s, from, to}. The other methods "
+        "follow one IK branch either way.",
+    )
     path: PathShape = Field(
         default_factory=PathShape,
         description='The path shape: {"type": "line"} (default) | {"type": "circ", "interim": '

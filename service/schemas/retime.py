@@ -56,8 +56,10 @@ class RetimeRequest(Sampling):
     limits: JointLimitsIn | None = Field(
         default=None,
         description="Per-joint velocity [rad/s or m/s] and acceleration [rad/s^2 or m/s^2] limits "
-        "(each list replaces the robot's; required without a robot) and effort [N m or N]. jerk "
-        "is not supported by retime (422 validation).",
+        "(each list replaces the robot's; required without a robot), effort [N m or N] and jerk "
+        "[rad/s^3 or m/s^3]: with jerk the motion is jerk-limited (continuous acceleration; "
+        "spline paths only, 422 validation at limits.jerk on a blended path). A robot's own jerk "
+        "limits are not applied unless given here.",
     )
     gravity: Gravity | None = GRAVITY_FIELD
     max_linear_speed: float | None = Field(

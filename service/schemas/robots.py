@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, Field, StringConstraints
+from pydantic import BaseModel, Discriminator, Field, StringConstraints, Tag
 
 from service.schemas.common import (
     TOOL_FIELD,
@@ -107,8 +107,34 @@ class RobotDetail(RobotSummary):
     )
 
 
+MAX_FK_ROWS = 1000
+"""Most rows of joint positions one FK request answers (``positions`` as a list of rows)."""
+PositionRows = Annotated[
+    list[JointPositions],
+    Field(
+        min_length=1,
+        max_length=MAX_FK_ROWS,
+        description=f"1 to {MAX_FK_ROWS} rows of joint positions [rad or m], one per joint each.",
+    ),
+]
+
+
+def _positions_form(value: Any) -> str:
+    """``rows`` for a list whose first element is a list, else ``one``: the form of ``positions``
+    is chosen by its shape, so an error names the row and joint (``positions.3.1``)."""
+    is_rows = isinstance(value, list) and bool(value) and isinstance(value[0], list)
+    return "rows" if is_rows else "one"
+
+
 class FKRequest(StrictModel):
-    positions: JointPositions
+    positions: Annotated[
+        Annotated[JointPositions, Tag("one")] | Annotated[PositionRows, Tag("rows")],
+        Discriminator(_positions_form),
+    ] = Field(
+        description="Joint positions [rad or m], one per joint, inside the limits: the answer is "
+        f"one pose. Or a list of 1 to {MAX_FK_ROWS} such rows: the answer is "
+        '{"results": [...]}, one single-form answer per row, in order.'
+    )
     tool: Tool | None = TOOL_FIELD
     frame: str | None = FrameName
     frames: bool = Field(
@@ -140,6 +166,13 @@ class FKResponse(BaseModel):
     )
     frames: list[LinkFrame] | None = Field(
         default=None, description='With "frames": true, every link frame in kinematic order.'
+    )
+
+
+class FKBatchResponse(BaseModel):
+    results: list[FKResponse] = Field(
+        description="One answer per row of positions, in their order: what the single form "
+        "answers for that row."
     )
 
 

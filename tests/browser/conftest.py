@@ -13,6 +13,11 @@ import pytest
 from tests.browser.chromium import CHROME_FLAGS, CHROMEDRIVER, CHROMIUM, webdriver
 from tests.live_service import live_service
 
+try:
+    from selenium.webdriver.support.ui import WebDriverWait
+except ImportError:  # pragma: no cover - the test extra installs selenium (NEEDS_CHROMIUM skips)
+    pass
+
 
 @pytest.fixture(scope="module")
 def server() -> Iterator[str]:
@@ -48,3 +53,13 @@ def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
         yield driver
     finally:
         driver.quit()
+
+
+@pytest.fixture
+def page(server: str, browser: Any) -> Any:
+    """The playground, freshly loaded: schema read, robots listed and forms built."""
+    browser.get(f"{server}/")
+    WebDriverWait(browser, 30).until(
+        lambda d: d.execute_script("return document.body.dataset.state") == "ready"
+    )
+    return browser

@@ -39,14 +39,6 @@ FK_SUBSAMPLE = 100
 """The page computes the tool path from at most this many returned points (app.js MAX_FK_POINTS)."""
 
 
-@pytest.fixture
-def page(server: str, browser: Any) -> Any:
-    """The page, freshly loaded, robots listed and forms built."""
-    browser.get(f"{server}/")
-    WebDriverWait(browser, 30).until(lambda d: d.execute_script(_STATE) == "ready")
-    return browser
-
-
 _STATE = "return document.body.dataset.state"
 _RUNS = "return Number(document.body.dataset.run || 0)"
 

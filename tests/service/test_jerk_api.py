@@ -195,3 +195,17 @@ def test_a_robot_without_published_jerk_needs_limits_jerk(client: TestClient) ->
     assert answer["errors"][0]["loc"] == ["body", "limits", "jerk"]
     body["limits"] = {"jerk": [50.0] * 6}
     assert client.post(URL, json=body).status_code == 200
+
+
+def test_a_sub_millisecond_move_keeps_ruckigs_exact_duration(client: TestClient) -> None:
+    """Issue 25 item 12: no silent stretch to 1 ms (Ruckig's own duration, however short)."""
+    body = jerk_move(1, goal={"positions": [1e-4]})
+    body["limits"] = {"velocity": [1.0], "acceleration": [1e4], "jerk": [1e8]}
+    response = client.post(URL, json=body)
+    assert response.status_code == 200, response.text
+    doc = response.json()
+    expected = ruckig_duration(body)
+    assert 0.0 < expected < 1e-3
+    assert doc["diagnostics"]["duration"] == pytest.approx(expected, rel=1e-12)
+    assert doc["points"][-1]["time_from_start"] == pytest.approx(expected, rel=1e-12)
+    assert not doc["diagnostics"]["warnings"]

@@ -175,3 +175,17 @@ def test_the_exact_step_qp_solver_is_declared_and_installed() -> None:
     source = (ROOT / "core" / "cartesian" / "rate" / "tick_qp.py").read_text()
     order = re.search(r"for solver in \(([^)]*)\)", source)
     assert order and order.group(1).split(",")[0].strip().strip('"') in QP_BACKENDS
+
+
+def test_ci_type_checks_core_robots_and_service() -> None:
+    """``.ci/run`` runs mypy with the project's own configuration, which covers the three packages
+    at default strictness (issue 23: 0 errors in CI)."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["mypy"]
+    assert set(config["files"]) == {"core", "robots", "service"}
+    assert not {"strict", "disallow_untyped_defs", "ignore_errors"} & set(config)
+    commands = [
+        line.split(";")[-1].strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()
+    ]
+    assert any(re.fullmatch(r"\S*/bin/mypy", c) for c in commands), commands

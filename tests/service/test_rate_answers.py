@@ -231,3 +231,60 @@ def test_rate_methods_keep_max_angular_speed(client: TestClient, method: str) ->
         A, B = tip(UR5, q + h * qd)[:3, :3], tip(UR5, q - h * qd)[:3, :3]
         speeds.append(np.linalg.norm(Rotation.from_matrix(A @ B.T).as_rotvec()) / (2 * h))
     assert 0.2 * 0.99 <= max(speeds) <= 0.2 * (1 + 1e-6)
+
+
+WRIST = {
+    "robot": "puma560",
+    "method": "resolved_rate_dls",
+    "start": {"positions": [0.0, 0.6, -2.6, 0.0, 0.25, 0.0]},
+    "goal": {"positions": [0.0, 0.6, -2.6, 0.0, -0.25, 0.0]},
+}
+"""A PUMA 560 line on which q5 goes from +0.25 to -0.25 rad: through the wrist singularity."""
+
+
+def test_keep_configuration_false_lets_the_dls_pass_the_wrist_singularity(client) -> None:
+    """Issue 25 item 11: the line through the PUMA's wrist singularity is 422 branch_flip by
+    default (unchanged); with keep_configuration false a 200 whose configuration_changes names
+    the change (the wrist label is the sign of q5: checked on the returned positions), the tool on
+    the line within the tolerance (pinocchio FK), every joint within its velocity limit and, by
+    second differences of the returned positions, its acceleration limit."""
+    problem(client.post("/v1/trajectories/cartesian", json=WRIST), 422, "branch_flip")
+    answer = client.post("/v1/trajectories/cartesian", json={**WRIST, "keep_configuration": False})
+    assert answer.status_code == 200, answer.text
+    doc = answer.json()
+    t = np.array([p["time_from_start"] for p in doc["points"]])
+    q = np.array([p["positions"] for p in doc["points"]])
+    v = np.array([p["velocities"] for p in doc["points"]])
+    (change,) = doc["diagnostics"]["configuration_changes"]
+    assert change["from"].endswith("-flip") and change["to"].endswith("-noflip")
+    assert change["from"].rsplit("-", 1)[0] == change["to"].rsplit("-", 1)[0]
+    flips = np.flatnonzero(np.diff(np.sign(q[:, 4])) != 0)
+    assert len(flips) == 1 and q[0, 4] > 0 > q[-1, 4]
+    T0, T1 = tip(PUMA, q[0]), tip(PUMA, WRIST["goal"]["positions"])
+    p0, p1 = T0[:3, 3], T1[:3, 3]
+
+    def turned(T: np.ndarray) -> float:  # rotation angle from the start [rad]
+        return float(Rotation.from_matrix(T0[:3, :3].T @ T[:3, :3]).magnitude())
+
+    # the line turns the tool about a fixed axis: s is the share of the angle turned
+    s_tool = [turned(tip(PUMA, x)) / turned(T1) for x in q]
+    i = flips[0]  # the sign of q5 changes between returned points i and i + 1
+    assert s_tool[i] - 1e-3 <= change["s"] <= s_tool[i + 1] + 1e-3
+    np.testing.assert_allclose(p0, p1, atol=1e-12)  # (the tip frame is the wrist centre)
+    assert max(np.linalg.norm(tip(PUMA, x)[:3, 3] - p0) for x in q) <= 1e-3
+    axis = Rotation.from_matrix(T0[:3, :3].T @ T1[:3, :3]).as_rotvec()
+    for x, share in zip(q, s_tool, strict=True):  # on the slerp within the tolerance
+        R_line = T0[:3, :3] @ Rotation.from_rotvec(share * axis).as_matrix()
+        assert Rotation.from_matrix(R_line.T @ tip(PUMA, x)[:3, :3]).magnitude() <= 1e-2
+    assert np.all(np.abs(v) <= PUMA.velocity_limits * (1 + 1e-9))
+    h = np.diff(t)
+    same = np.flatnonzero(np.abs(h[:-1] - h[1:]) < 1e-12)
+    d2 = (q[same + 2] - 2 * q[same + 1] + q[same]) / h[same, None] ** 2
+    assert np.all(np.abs(d2) <= np.asarray(PUMA.acceleration_limits) * (1 + 1e-6))
+    # the other methods follow one IK branch either way: the same answer as by default
+    for method in ("sampled", "bounded_deviation"):
+        body = {**WRIST, "method": method}
+        default = client.post("/v1/trajectories/cartesian", json=body)
+        free = client.post("/v1/trajectories/cartesian", json={**body, "keep_configuration": False})
+        assert free.status_code == default.status_code
+        assert free.json().get("code") == default.json().get("code")

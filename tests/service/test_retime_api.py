@@ -155,6 +155,35 @@ def test_accelerations_integrate_to_the_velocities(client: TestClient) -> None:
     assert np.abs(trapezoid - np.diff(qd, axis=0)).max() <= 1e-6
 
 
+def test_jerk_limits_on_a_spline(client: TestClient) -> None:
+    """With limits.jerk: the returned accelerations' slopes (finite differences, an independent
+    estimate of the jerk) within it, velocity and acceleration within theirs, acceleration
+    continuous from rest to rest, the trapezoid rule of the accelerations giving the velocities,
+    and the motion no shorter than the time-optimal one of the same request without jerk."""
+    waypoints = [[0.0, 0.0, 0.0], [0.6, 0.3, -0.2], [1.0, -0.2, 0.1], [1.5, 0.4, 0.3]]
+    v, a, j = [1.0, 1.5, 2.0], [3.0, 4.0, 5.0], [20.0, 30.0, 40.0]
+    body = {"waypoints": waypoints, "path": "spline", "sample_period": 0.0005,
+            "limits": {"velocity": v, "acceleration": a}}  # fmt: skip
+    optimal = client.post(URL, json=body).json()["diagnostics"]
+    response = client.post(URL, json={**body, "limits": {**body["limits"], "jerk": j}})
+    assert response.status_code == 200, response.text
+    answer = response.json()
+    t, _, qd, qdd = arrays(answer)
+    slopes = np.abs(np.diff(qdd, axis=0)) / np.diff(t)[:, None]
+    assert (slopes / np.array(j)).max() <= 1.0 + 1e-6
+    assert (np.abs(qd) / np.array(v)).max() <= 1.0 + 1e-9
+    assert (np.abs(qdd) / np.array(a)).max() <= 1.0 + 1e-9
+    np.testing.assert_allclose(qdd[[0, -1]], 0.0, atol=1e-9)
+    trapezoid = 0.5 * (qdd[1:] + qdd[:-1]) * np.diff(t)[:, None]
+    assert np.abs(trapezoid - np.diff(qd, axis=0)).max() <= 1e-6
+    diag = answer["diagnostics"]
+    assert diag["timing"] == "jerk_limited"
+    assert diag["time_optimal_duration"] == pytest.approx(optimal["duration"], rel=1e-9)
+    assert diag["duration"] >= optimal["duration"]
+    assert np.all(np.array(diag["peak_jerk"]) <= np.array(j) * (1 + 1e-9))
+    assert np.all(np.array(diag["peak_jerk"]) >= slopes.max(axis=0) * (1 - 1e-6))
+
+
 def test_tool_speed_limits(client: TestClient) -> None:
     body = {"robot": "ur5", "waypoints": MOVES["ur5"], "max_linear_speed": 0.3,
             "max_angular_speed": 0.8, "sample_period": 0.002}  # fmt: skip
@@ -189,8 +218,11 @@ LIMITS = {"velocity": [1.0, 1.0], "acceleration": [2.0, 2.0]}
          "validation", ["body", "limits", "acceleration"]),
         ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": LIMITS, "max_linear_speed": 1.0}, 422,
          "validation", ["body", "max_linear_speed"]),
+        # jerk limits need a spline (a blended path's curvature steps)
         ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": {**LIMITS, "jerk": [1.0, 1.0]}}, 422,
          "validation", ["body", "limits", "jerk"]),
+        ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "path": "spline",
+          "limits": {**LIMITS, "jerk": [1.0, -1.0]}}, 422, "validation", ["body", "limits", "jerk"]),
         ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": LIMITS, "path": "spline",
           "max_deviation": 0.2}, 422, "validation", ["body", "max_deviation"]),
         ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": LIMITS, "gravity": [0, 0, -9.81]}, 422,

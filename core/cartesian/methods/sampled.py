@@ -16,6 +16,7 @@ import numpy as np
 
 from core.cartesian.check import finish
 from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
+from core.cartesian.measure import min_singular_values
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
 from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
 from core.cartesian.task import CartesianResult, CartesianTask
@@ -24,11 +25,13 @@ from core.cartesian.validate import validated_line
 from core.cartesian.walk import (
     GOAL_BRANCH_WARNING,
     GOAL_SNAP,
+    MAX_INTERVALS,
     MIN_STEP,
     TWO_PI,
     LineWalk,
     Seed,
     Walker,
+    check_grid,
     walk_line,
 )
 from core.cartesian.walk_batch import batch_walk
@@ -164,7 +167,7 @@ def _batch_chunk(
 def plan_sampled(task: CartesianTask) -> CartesianResult:
     """Plan ``task`` by sampled IK along the line (see the module docstring)."""
     line = validated_line(task)
-    walk = batch_walk(task, line) or walk_line(task, line)
+    walk = batch_walk(task, line, _returned_grid(task, line)) or walk_line(task, line)
     failure, attempts = walk.failure, 0
     while True:
         if failure is not None and (not task.allow_partial or walk.end <= MIN_STEP):
@@ -177,6 +180,17 @@ def plan_sampled(task: CartesianTask) -> CartesianResult:
             if not task.allow_partial or err.s is None or attempts >= PARTIAL_TRIES:
                 raise
             walk, failure = walk.before(err.s), err
+
+
+def _returned_grid(task: CartesianTask, line: Path) -> np.ndarray | None:
+    """With ``samples`` the returned points' s are known before the timing (equally spaced):
+    the batched walk solves them directly (and the timing reads its caps there) when they are at
+    least as dense as its own grid and no more than its largest (``MAX_INTERVALS``); else None
+    (the walk's grid, then IK at the returned points, under the deadline)."""
+    if task.samples is None or task.samples > MAX_INTERVALS + 1:
+        return None  # (the walk's own grid is bounded: IK of one batch, deadline checks between)
+    grid = np.linspace(0.0, 1.0, int(task.samples))
+    return grid if len(grid) >= len(check_grid(task, line)) else None
 
 
 def _densified(
@@ -203,6 +217,26 @@ def _densified(
     return result
 
 
+def _point_rates(
+    task: CartesianTask, line: Path, walk: LineWalk, s: np.ndarray, q: np.ndarray
+) -> PathRates:
+    """The path rates at the returned points ``q`` (at ``s``): the walk's own when it solved
+    exactly those points; ``Singularity`` where one is singular."""
+    if np.array_equal(s, walk.s):
+        rates = walk.rates
+    else:
+        rates = path_rates(task.robot, line, q, deadline=task.deadline)
+    singular = rates.sigma < SINGULAR_VALUE_THRESHOLD
+    if singular.any():
+        i = int(np.argmax(singular))
+        raise Singularity(
+            f"the Jacobian is singular at s={s[i]:.4f} between walked points (smallest singular "
+            f"value {rates.sigma[i]:.3g})",
+            s=float(s[i]),
+        )
+    return rates
+
+
 def _timed_result(
     task: CartesianTask, line: Path, walk: LineWalk, failure: PlanningError | None
 ) -> CartesianResult:
@@ -217,15 +251,7 @@ def _timed_result(
         if len(todo):
             cache.update(zip(todo.tolist(), _solve_points(solver, walk, todo), strict=True))
         q = np.array([cache[x] for x in s.tolist()])
-        rates = path_rates(robot, line, q, deadline=task.deadline)
-        singular = rates.sigma < SINGULAR_VALUE_THRESHOLD
-        if singular.any():
-            i = int(np.argmax(singular))
-            raise Singularity(
-                f"the Jacobian is singular at s={s[i]:.4f} between walked points (smallest singular "
-                f"value {rates.sigma[i]:.3g})",
-                s=float(s[i]),
-            )
+        rates = _point_rates(task, line, walk, s, q)
         traj = timed_trajectory(times, timing, q, rates.dq_ds, rates.d2q_ds2, robot.joint_names)
         over = over_speed(traj.velocities, robot.velocity_limits).any(axis=1)
         if not over.any():
@@ -236,6 +262,7 @@ def _timed_result(
             *(np.concatenate([a, b[over]])[order] for a, b in zip(grid_rates, rates, strict=True))
         )
     warnings = list(timing.warnings)
+    sigma: np.ndarray | None = rates.sigma  # (at the returned points)
     acc_ratio = traj.peak_acceleration / robot.acceleration_limits
     if task.duration is None and acc_ratio.max() > 1.0 + 1e-6:
         j = int(np.argmax(acc_ratio))
@@ -249,6 +276,7 @@ def _timed_result(
         gap = float(np.abs(traj.positions[-1] - task.q_goal).max())
         if gap <= GOAL_SNAP:
             traj.positions[-1] = task.q_goal
+            sigma = np.append(rates.sigma[:-1], min_singular_values(robot, task.q_goal[None]))
         elif gap > GOAL_BRANCH_WARNING:
             warnings.append(
                 f"the line ends at the goal pose in another joint configuration than "
@@ -258,6 +286,7 @@ def _timed_result(
             )
     result = CartesianResult(
         trajectory=traj,
+        singular_values=sigma,
         fraction=walk.end,
         warnings=tuple(warnings),
         diagnostics={

@@ -24,9 +24,12 @@ T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nom
      It refuses to step where the smallest singular value is below ``core.kinematics.SINGULAR_VALUE_THRESHOLD``
      (``Singularity``), where a rate exceeds its limit (``JointRateLimit``, the notes' warning) or
      where the step would leave the position limits (``JointLimit``), each with ``s``.
-   - ``resolved_rate_dls``: the QP of ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at
-     least ``REDUNDANCY_DAMPING`` for a redundant arm, so the step is the minimum-norm one); its
-     rates always respect the velocity and position limits. Near a singularity the tool leaves the
+   - ``resolved_rate_dls`` (``core.cartesian.rate.dls_tick``): the QP of
+     ``core.cartesian.rate.qp`` with ``lambda = damping(sigma_min)`` (at least
+     ``REDUNDANCY_DAMPING`` for a redundant arm, so the step is the minimum-norm one); its rates
+     always respect the velocity limits, the acceleration limits (the previous rates +- ``a_max
+     dt``; not with ``allow_violations``) and the position limits with room to brake. Near a
+     singularity the tool leaves the
      line (measured and reported). So that velocity bounds slow the tool down along the line rather
      than push it off the line, the path clock runs at ``tau' = kappa <= 1``: the largest rate that
      keeps the DLS rates of the feedforward twist within ``TIME_SCALE_MARGIN`` of the limits (online
@@ -34,10 +37,12 @@ T (the setpoint rests at the goal from T on; ``ceil(T / dt)`` ticks make the nom
      keeps ``kappa = 1``: it is the classic reference.
    Without a ``duration`` the rates are scaled down where the tool's own speeds ``|J_p qd|``,
    ``|J_w qd|`` would exceed the task's limits (the feedback term's share: ``steps.speed_scale``).
-4. ``q += qd dt`` (explicit Euler; the returned positions lie on this piecewise-linear path).
+4. ``q += qd dt`` (explicit Euler; ``core.cartesian.rate.smooth`` turns the ticks into the returned
+   C2 motion).
 
 When the path clock has reached the end the setpoint rests at the goal and the run ends once the pose
-error is within ``GOAL_FRACTION`` of the tolerances; the run may go on past the nominal duration by
+error is within ``GOAL_FRACTION`` of the tolerances and every rate within one tick's acceleration
+of rest; the run may go on past the nominal duration by
 ``max(SETTLE_TIME, SETTLE_FRACTION T)``. If it is then within the tolerances it ends there (with a
 warning); otherwise the DLS fails with ``JointLimit`` (a joint held at its position limit),
 ``JointRateLimit`` (the velocity limits kept the path clock from the end), ``Singularity`` (stuck
@@ -49,45 +54,22 @@ where the damping is active: a singularity or the workspace boundary) or ``NoCon
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from core.cartesian.rate.qp import (
-    REDUNDANCY_DAMPING,
-    SINGULAR_REGION,
-    RateLimits,
-    build_dls_qp,
-    check_solver,
-    damping,
-    solve_dls_qp,
-)
+from core.cartesian.rate.dls_tick import DlsTick, smoothing_margin
+from core.cartesian.rate.pinv_tick import PinvTick
+from core.cartesian.rate.qp import SINGULAR_REGION, RateLimits, check_solver
 from core.cartesian.rate.retime import ACCELERATION_TRIGGER, joint_timing, peak_acceleration_ratio
-from core.cartesian.rate.setpoint import LineSetpoint, setpoint_for
-from core.cartesian.rate.steps import (
-    TIME_SCALE_MARGIN,
-    clear_ticks,
-    feedforward_ratio,
-    first_limit,
-    pinv_step,
-    pose_error,
-    singular_values,
-    smallest_singular_value,
-    speed_scale,
-    stuck,
-    svd,
-    time_scale,
-)
-from core.cartesian.rate.tick_qp import DlsQpSolver, ExtraRows
+from core.cartesian.rate.setpoint import LineSetpoint, PathSetpoint, SetpointClock, setpoint_for
+from core.cartesian.rate.steps import first_limit, pose_error, stuck
+from core.cartesian.rate.tick_qp import ExtraRows
+from core.cartesian.rate.ticks import RateRun, TickController, TickLog
 from core.cartesian.task import MAX_TICKS, CartesianTask
 from core.cartesian.timing import nominal_profile
 from core.cartesian.validate import validated_line
-from core.errors import (
-    InputError,
-    PlanningError,
-    TooLarge,
-)
+from core.errors import InputError, NoConvergence, PlanningError, TooLarge
 from core.kinematics import task_rows
 from core.path import Path
 from core.timing import PathLaw as Profile
@@ -102,105 +84,117 @@ SETTLE_TIME = 1.0
 """[s] Least time allowed after the nominal duration to reach the goal."""
 SETTLE_FRACTION = 1.0
 """Time allowed after the nominal duration, as a share of it (when longer than ``SETTLE_TIME``)."""
-ACTIVE_TOLERANCE = 1e-6
-"""[rad/s] A rate this close to its bound counts as an active limit."""
+SPEED_CAP_SHARE = 1.0 - 1e-4
+"""The ticks keep the tool's speed limits with this share: the returned velocities blend the
+rates of neighbouring ticks (``core.cartesian.rate.smooth``) under a Jacobian that turns between
+them, which measured up to 3e-6 of the limit over it at 10 ms sampling."""
+STALL_TIME = 0.5
+"""[s] A run that ends short of the goal is stuck at a singularity when the smallest singular value
+fell below the singular region within this time of its end: the DLS's acceleration-bounded rates
+hover about a singular configuration (measured: the UR5 3 m out of reach swings with a period of
+about 0.5 s, sigma between 0.01 and 0.12) rather than settle in it."""
 _CHECK_EVERY = 256
-_RECHECK = 16
-"""Ticks between looks for the clear span (``clear_ticks``) while a joint is near a position limit."""
-_FIRST_BLOCK, _BLOCK = 16, 1024
-"""Setpoints tabulated per block of ticks: the first after a slowed tick, and the most (doubling)."""
+"""Ticks between deadline checks."""
 RATE_METHODS = ("resolved_rate", "resolved_rate_dls")
-
-
-@dataclass(frozen=True)
-class RateRun:
-    """The simulated control ticks of one run (n ticks, ``k = 0..n-1``; steps ``k = 0..n-2``).
-
-    Attributes:
-        dt: Control period [s].
-        nominal_ticks: Ticks in the nominal duration (the first tick at or after its end).
-        nominal_duration: Duration of the nominal profile s(t) [s].
-        positions: Joint positions at each tick ``(n, dof)``.
-        rates: Joint rates commanded from each tick on ``(n, dof)``; the last row is zero.
-        s: Path parameter of the setpoint at each tick ``(n,)``.
-        sigma: Smallest singular value of the task Jacobian at each step ``(n-1,)``.
-        damping: lambda at each step ``(n-1,)`` (0 for ``resolved_rate``).
-        time_scale: Rate of the path clock at each step ``(n-1,)`` (1: nominal speed).
-        active: Whether a rate bound was active at each step ``(n-1,)``.
-        iterations: QP iterations at each step ``(n-1,)`` (0 for ``resolved_rate``).
-        solve_time: QP update and solve time [s] at each step ``(n-1,)``.
-        fallbacks: Steps where OSQP stopped short and the exact bounded least squares took over.
-        tracking_position: Distance [m] from the setpoint at each tick ``(n,)``.
-        tracking_orientation: Angle [rad] from the setpoint at each tick ``(n,)``.
-        failure: Why the run stopped short of the goal, or None.
-        timing_warnings: Where the clock was slowed for the joint limits (``retime``).
-    """
-
-    dt: float
-    nominal_ticks: int
-    nominal_duration: float
-    positions: np.ndarray
-    rates: np.ndarray
-    s: np.ndarray
-    sigma: np.ndarray
-    damping: np.ndarray
-    time_scale: np.ndarray
-    active: np.ndarray
-    iterations: np.ndarray
-    solve_time: np.ndarray
-    fallbacks: int
-    tracking_position: np.ndarray
-    tracking_orientation: np.ndarray
-    failure: PlanningError | None
-    timing_warnings: tuple[str, ...] = ()
 
 
 def nominal_timing(task: CartesianTask, line: Path) -> Profile:
     """s(t): quintic for ``task.duration``, else the speed-limited profile of ``task.speeds()``
-    (the S-curve for ``speed_profile="s_curve"``: ``core.cartesian.timing.nominal_profile``)."""
-    return nominal_profile(task, line)
+    times ``SPEED_CAP_SHARE`` (the S-curve for ``speed_profile="s_curve"``:
+    ``core.cartesian.timing.nominal_profile``)."""
+    return nominal_profile(_shared_speeds(task), line)
+
+
+def _shared_speeds(task: CartesianTask) -> CartesianTask:
+    """``task`` with its tool speed limits times ``SPEED_CAP_SHARE`` (none with a duration): the
+    clock the ticks follow stays under the cap they keep, so the cap never cuts the feedforward (a
+    cut at cruise made the DLS lag, then catch up: 5 % over the s-curve's path jerk)."""
+    if task.duration is not None:
+        return task
+    linear, angular = task.speeds()
+    return replace(
+        task,
+        max_linear_speed=None if linear is None else linear * SPEED_CAP_SHARE,
+        max_angular_speed=None if angular is None else angular * SPEED_CAP_SHARE,
+    )
 
 
 def simulate(task: CartesianTask, method: str, extra_rows: ExtraRows | None = None) -> RateRun:
-    """Run the controller of ``method`` along the task's line (see the module docstring); where
-    no ``duration`` is given and the run's joints accelerate over ``ACCELERATION_TRIGGER`` of their
-    limits, run it again on the clock ``core.cartesian.rate.retime.joint_timing`` slows for them."""
-    run, limits = _simulate(task, method, extra_rows), task.robot.acceleration_limits
-    if run.failure is None and task.duration is None:
-        if peak_acceleration_ratio(run.rates, run.dt, limits) > ACCELERATION_TRIGGER:
-            slower = joint_timing(task, validated_line(task), run.s, run.positions)
-            if slower is not None:
-                run = _simulate(task, method, extra_rows, slower.profile)
-                run = replace(run, timing_warnings=slower.warnings)
+    """Run the controller of ``method`` along the task's line (see the module docstring). Where no
+    ``duration`` is given and the joints' acceleration limits held the run back, run it again on
+    the clock ``core.cartesian.rate.retime.joint_timing`` slows for them along the joint path a run
+    took: the run's own when its joints accelerated over ``ACCELERATION_TRIGGER`` of their limits
+    (``resolved_rate``, and the DLS with ``allow_violations``); for the DLS, whose rates keep the
+    limits, when it failed or (without extra rows: they leave the line on purpose) lagged off
+    the tolerances, the path of a run without the acceleration box."""
+    run = _simulate(task, method, extra_rows)
+    if task.duration is not None:
+        return run
+    if method == "resolved_rate_dls" and not task.allow_violations:
+        if extra_rows is not None or not _lagged(task, run):  # (rows leave the line on purpose)
+            return run
+        path = _simulate(task, method, extra_rows, boxed=False)
+    else:
+        limits = task.robot.acceleration_limits
+        if run.failure is not None or peak_acceleration_ratio(run.rates, run.dt, limits) <= (
+            ACCELERATION_TRIGGER
+        ):
+            return run
+        path = run
+    if path.failure is None:
+        slower = joint_timing(_shared_speeds(task), validated_line(task), path.s, path.positions)
+        if slower is not None:
+            run = _simulate(task, method, extra_rows, slower.profile)
+            run = replace(run, timing_warnings=slower.warnings)
     return run
 
 
-def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile | None = None):
-    """One run of the controller of ``method`` on the clock ``timing`` (default ``nominal_timing``).
+def _lagged(task: CartesianTask, run: RateRun) -> bool:
+    """Whether the DLS's acceleration box held ``run`` back: it failed to converge or strayed off
+    the tolerances, its rate bounds were active where it first strayed, and from a little before
+    there on it met no singular region (a stall at the rim or a singularity, a pinned joint, is no
+    lag)."""
+    if run.failure is not None and not isinstance(run.failure, NoConvergence):
+        return False
+    off = (run.tracking_position > task.position_tolerance) | (
+        run.tracking_orientation > task.orientation_tolerance
+    )
+    strayed = np.flatnonzero(off[:-1])
+    if not strayed.size:
+        return False
+    first = max(0, int(strayed[0]) - math.ceil(STALL_TIME / run.dt))
+    active = run.active[first : int(strayed[0]) + 1].any()
+    return bool(active and run.sigma[first:].min() >= SINGULAR_REGION)
 
-    ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.qp.ExtraRows``:
+
+def _simulate(
+    task: CartesianTask,
+    method: str,
+    extra_rows: ExtraRows | None = None,
+    timing: Profile | None = None,
+    boxed: bool = True,
+) -> RateRun:
+    """One run of the controller of ``method`` on the clock ``timing`` (default ``nominal_timing``);
+    the DLS bounds its rates by the acceleration limits when ``boxed`` (and the task does not
+    ``allow_violations``).
+
+    ``extra_rows`` adds inequality rows to each tick's DLS QP (``core.cartesian.rate.tick_qp.ExtraRows``:
     obstacle avoidance); OSQP only, and not with ``resolved_rate``. Planning failures end the run
     and are returned in ``failure``; malformed input (``InputError``), a run over ``MAX_TICKS``
     (``TooLarge``) and the deadline raise.
 
-    The loop keeps per-tick work to what each tick needs (issue 19, P5; every output equal to the
-    previous loop's within 1e-12, iterations exactly): arrays preallocated for the run and written
-    in place (rate bounds, rates, next positions); rate bounds left at the velocity limits and
-    next positions unclipped over the ticks ``clear_ticks`` shows no position limit can bind; setpoints tabulated per block of ticks while
-    the clock runs at rate 1; pose error, damping and path clock in Python floats; the smallest
-    singular value from syev on the Gram matrix ``J J^T`` (gesdd near singularities, both without
-    numpy's wrapper); the path-clock rate skipped where a norm bound, then
-    a Cholesky solve, keep it at 1; one OSQP workspace updated in place; active-bound flags and the
-    first pinned joint from the stored arrays after the loop.
+    The loop (``_loop``) keeps per-tick work to what each tick needs (issue 19, P5): arrays
+    preallocated for the run and written in place (``TickLog``); setpoints tabulated per block of
+    ticks while the clock runs at rate 1 (``SetpointClock``); pose error in Python floats; the
+    controller's own tick in ``core.cartesian.rate.dls_tick`` / ``core.cartesian.rate.pinv_tick``;
+    active-bound flags from the stored arrays after the loop.
     """
     if method not in RATE_METHODS:
         raise InputError(f"method must be one of {', '.join(RATE_METHODS)}", field=("method",))
-    robot, dls = task.robot, method == "resolved_rate_dls"
-    period = float(task.control_period)
-    if not math.isfinite(period) or period <= 0.0:
+    dt = float(task.control_period)
+    if not math.isfinite(dt) or dt <= 0.0:
         raise InputError("control_period must be a finite number > 0 s", field=("control_period",))
-    limits = RateLimits.of(robot)
-    lo_q, hi_q, vmax = limits.position[:, 0], limits.position[:, 1], limits.velocity
+    dls = method == "resolved_rate_dls"
     solver = check_solver(task.solver) if dls else ""
     if extra_rows is not None and not (dls and solver == "osqp"):
         raise InputError(
@@ -208,8 +202,7 @@ def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile
         )
     line = validated_line(task)
     timing = nominal_timing(task, line) if timing is None else timing
-    nominal = max(1, math.ceil(timing.duration / period - 1e-9))
-    dt = period
+    nominal = max(1, math.ceil(timing.duration / dt - 1e-9))
     total = nominal + math.ceil(max(SETTLE_TIME, SETTLE_FRACTION * timing.duration) / dt)
     if total > MAX_TICKS:
         raise TooLarge(
@@ -217,55 +210,74 @@ def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile
             field=("control_period",),
         )
     setpoint = setpoint_for(line, timing, dt, nominal)
+    log = TickLog(total + 1, task.robot.dof, with_bounds=dls)
+    controller = _controller(task, method, log, setpoint, dt, solver, extra_rows, boxed)
+    n, failure = _loop(task, line, setpoint, controller, log, total)
+    return log.run(n, dt, nominal, float(timing.duration), controller.fallbacks, failure, dls)
+
+
+def _controller(
+    task: CartesianTask,
+    method: str,
+    log: TickLog,
+    setpoint: LineSetpoint | PathSetpoint,
+    dt: float,
+    solver: str,
+    extra_rows: ExtraRows | None,
+    boxed: bool,
+) -> TickController:
+    """The controller of ``method`` for this run, with the tool's speed caps (none with a
+    duration) and the feedback gain ``min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)``."""
+    robot, limits = task.robot, RateLimits.of(task.robot)
     rows, pose_task = task_rows(robot.task_space), robot.task_space == "pose"
-    p_rows = rows[rows < 3]
-    all_rows, all_p = len(rows) == 6, len(p_rows) == 3
     gain = min(FEEDBACK_GAIN, MAX_GAIN_PER_TICK / dt)
     lin_cap, ang_cap = task.speeds()  # the tool's speed limits (none with a duration)
-    lin_cap = math.inf if lin_cap is None else float(lin_cap)
-    ang_cap = math.inf if ang_cap is None or not pose_task else float(ang_cap)
-    capped, p_list = lin_cap < math.inf or ang_cap < math.inf, len(p_rows)  # (rows 0..2 or 0..1)
-    goal_p, goal_o = task.position_tolerance, task.orientation_tolerance
-    capacity = 0 if extra_rows is None else int(extra_rows.capacity)
-    qp = DlsQpSolver(robot.dof, extra_rows=capacity) if dls and solver == "osqp" else None
-    floor = REDUNDANCY_DAMPING if robot.dof > len(rows) else 0.0
-    # |qd_ff|_inf <= |twist| max_i S_i / (S_i^2 + lam^2) / min v_max (with room for rounding);
-    # the largest unit twist along the path (one constant on a line; sampled densely on an arc,
-    # 1 % added for the samples between)
+    caps = (
+        len(rows[rows < 3]),  # the linear rows: 0..2, or 0..1
+        math.inf if lin_cap is None else float(lin_cap) * SPEED_CAP_SHARE,
+        math.inf if ang_cap is None or not pose_task else float(ang_cap) * SPEED_CAP_SHARE,
+    )
+    if method == "resolved_rate":
+        return PinvTick(robot, log, limits, rows, dt, gain, caps)
+    # the largest unit twist along the path (one constant on a line; sampled densely on an
+    # arc, 1 % added for the samples between), over the smallest velocity limit
     biggest = setpoint.max_unit[rows]
-    margin = 1.0 + 1e-6 if isinstance(setpoint, LineSetpoint) else 1.01
-    twist_bound = math.sqrt(float(biggest @ biggest)) * margin / float(vmax.min())
-    row_list, unit, unit_twist, units = rows.tolist(), None, biggest, biggest.tolist()
+    room = 1.0 + 1e-6 if isinstance(setpoint, LineSetpoint) else 1.01
+    twist_bound = math.sqrt(float(biggest @ biggest)) * room / float(limits.velocity.min())
+    margin = smoothing_margin(task, limits, setpoint.end)
+    boxed = boxed and not task.allow_violations  # (which accepts accelerations over the limits)
+    return DlsTick(
+        log, limits, rows, dt, gain, twist_bound, solver, extra_rows, caps, margin, boxed
+    )
 
-    n, dof = total + 1, robot.dof
-    positions, rates = np.zeros((n, dof)), np.zeros((n, dof))
-    bounds = np.empty((n if dls else 0, 2, dof))  # (lower, upper) rate bounds of each step,
-    bounds[:, 0], bounds[:, 1] = -vmax, vmax  # as they are while no position limit is in reach
-    track_p, track_o = np.zeros(n), np.zeros(n)
-    s_log, sigma, lam_log, scale = np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n)
-    its, times = np.zeros(n, dtype=np.int64), np.zeros(n)
-    position_box, low_v = np.stack([lo_q, hi_q]), -vmax
-    fallbacks, failure, tau, no_rows = 0, None, 0.0, ()
+
+def _loop(
+    task: CartesianTask,
+    line: Path,
+    setpoint: LineSetpoint | PathSetpoint,
+    controller: TickController,
+    log: TickLog,
+    total: int,
+) -> tuple[int, PlanningError | None]:
+    """The ticks ``k = 0..``: setpoint, kinematics, pose error, the end test, the controller's
+    step. Returns the number of ticks run and the failure that ended the run (or None)."""
+    robot, dt = task.robot, float(task.control_period)
+    rows = task_rows(robot.task_space)
+    pose_task, all_rows, all_p = (
+        robot.task_space == "pose",
+        len(rows) == 6,
+        len(rows[rows < 3]) == 3,
+    )
+    row_list, goal_p, goal_o = rows.tolist(), task.position_tolerance, task.orientation_tolerance
+    clock, positions = SetpointClock(setpoint, total + 1), log.positions
+    rest = np.asarray(robot.acceleration_limits, dtype=float) * dt  # a rate one tick from rest
     positions[0] = task.q_start
-    q = positions[0]
-    nominal_clock, block_at, block_end, block_size = True, 0, 0, _FIRST_BLOCK
-    wide, shift_lam, shift = len(rows) <= dof, 0.0, None
-    clear_until, recheck = 0, 0  # ticks k < clear_until: bounds (-v_max, v_max), no clipping of q
+    q, unit, unit_twist, units = positions[0], None, np.zeros(0), []
     kinematics = robot.fk_jacobian_loop()  # one scratch space for the run (this thread only)
-    clock = time.perf_counter
-    for k in range(n):
+    for k in range(total + 1):
         if k % _CHECK_EVERY == 0:
             task.deadline.check("resolved-rate control")
-        if nominal_clock:  # setpoints tabulated a block of ticks at a time (while kappa = 1)
-            if k >= block_end:
-                count = min(block_size, n - k)
-                block_s, block_sd, block_p, block_R, block_u = setpoint.block(tau, count)
-                block_at, block_end, block_size = k, k + count, min(2 * block_size, _BLOCK)
-            j = k - block_at
-            s, sd, p_d, R_d, u = block_s[j], block_sd[j], block_p[j], block_R[j], block_u[j]
-        else:
-            s, sd, p_d, R_d, u = setpoint(tau)
-            R_d = np.array(R_d).reshape(3, 3)
+        s, sd, p_d, R_d, u = clock.at(k)
         if u is not unit:  # per unit s' [1/s]; a line's is one object, set once
             unit, unit_twist = u, u[rows]
             units = unit_twist.tolist()
@@ -273,126 +285,32 @@ def _simulate(task, method, extra_rows: ExtraRows | None = None, timing: Profile
         # (ndarray.dot: the same BLAS call as @ without the ufunc machinery, about 1 us less)
         M = R_d.dot(T_now[:3, :3].T).tolist() if pose_task else None
         e = pose_error(T_now[:3, 3].tolist(), p_d, M)
-        s_log[k] = s
+        log.s[k] = s
         err_p = math.sqrt(e[0] * e[0] + e[1] * e[1] + (e[2] * e[2] if all_p else 0.0))
         err_o = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
-        track_p[k], track_o[k] = err_p, err_o
-        at_end = tau >= setpoint.end - 0.5 * dt
+        log.tracking_position[k], log.tracking_orientation[k] = err_p, err_o
+        at_end = clock.tau >= setpoint.end - 0.5 * dt
         if at_end and err_p <= GOAL_FRACTION * goal_p and err_o <= GOAL_FRACTION * goal_o:
-            n = k + 1
-            break
+            if bool((np.abs(log.rates[k - 1]) <= rest).all()):  # (and the rates come to rest)
+                return k + 1, None
         if k == total:
-            n = k + 1
-            if not (at_end and err_p <= goal_p and err_o <= goal_o):
-                first = first_limit(positions[1:n], lo_q, hi_q, s_log) if dls else None
-                failure = stuck(robot, line, q, sigma[k - 1], first, at_end, s, dt * k)
-            break
-        J = J_now if all_rows else J_now[rows]
-        # V = kappa s' unit_twist + K e, element by element (as the array expression would; zip
-        # without strict=True, which costs ~0.8 us a call: the lengths are equal by construction).
+            if at_end and err_p <= goal_p and err_o <= goal_o:
+                return k + 1, None
+            first, held = None, None
+            if isinstance(controller, DlsTick):  # (its joints stop short of a limit by a margin)
+                held = controller.held_box()
+                first = first_limit(positions[1 : k + 1], held[0], held[1], log.s)
+            stall = max(0, k - math.ceil(STALL_TIME / dt))
+            sigma = float(log.sigma[stall:k].min())  # (the DLS may hover)
+            failure = stuck(
+                robot, line, q, sigma, first, at_end, s, dt * k, held, positions[: k + 1]
+            )
+            return k + 1, failure
+        # (zip without strict=True in the controllers, ~0.8 us less: the lengths are equal)
         e_task = e if all_rows else [e[i] for i in row_list]
-        nxt = positions[k + 1]
-        if dls:
-            gram = J.dot(J.T)
-            if wide:
-                sigma_min = smallest_singular_value(J, gram, 2.0 * SINGULAR_REGION)
-            else:
-                sigma_min = float(singular_values(J)[-1])
-            sigma[k] = sigma_min
-            lam_log[k] = lam = damping(sigma_min, floor=floor)
-            gains = 1.0 / sigma_min if sigma_min > 0.0 else math.inf
-            if lam > 0.0:
-                gains = min(gains, 0.5 / lam)
-            kappa = 1.0
-            if abs(sd) * gains * twist_bound > TIME_SCALE_MARGIN:  # the norm bound may bind
-                twist = sd * unit_twist
-                # Cholesky first: the SVD route (exactly as before) only where it may bind.
-                if lam != shift_lam:  # lam^2 I, kept while lam is (the Panda's floor)
-                    shift_lam, shift = lam, lam * lam * np.eye(len(rows)) if lam else None
-                ratio = feedforward_ratio(J, gram, shift, twist, vmax)
-                if ratio > TIME_SCALE_MARGIN * (1.0 - 1e-9):
-                    scale[k] = kappa = time_scale(*svd(J), twist, lam, vmax)
-            B = bounds[k]  # rate_bounds(q, limits, dt), written in place (as filled while clear)
-            clear = k < clear_until
-            if not clear:
-                np.subtract(position_box, q, out=B)
-                np.divide(B, dt, out=B)
-                if k >= recheck:
-                    clear_until = k + 1 + clear_ticks(B, vmax, n)
-                    recheck = clear_until if clear_until > k + 1 else k + _RECHECK
-                np.maximum(B, low_v, out=B)
-                np.minimum(B, vmax, out=B)
-            V = np.array([kappa * (sd * u) + gain * x for u, x in zip(units, e_task, strict=False)])
-            start = clock()
-            if qp is not None:
-                its[k], fell_back, _ = qp.solve(
-                    J,
-                    V,
-                    lam,
-                    B[0],
-                    B[1],
-                    rates[k],
-                    no_rows if extra_rows is None else extra_rows(q),
-                )
-                times[k] = clock() - start
-            else:
-                step = solve_dls_qp(build_dls_qp(J, V, lam, q, limits, dt), solver)
-                rates[k], its[k], times[k], fell_back = (
-                    step.x,
-                    step.iterations,
-                    step.solve_time,
-                    step.fallback,
-                )
-            fallbacks += fell_back
-            if capped:  # the tool's speed limits hold for the feedback term too
-                c = speed_scale(J_now, rates[k], p_list, lin_cap, ang_cap)
-                if c < 1.0:
-                    rates[k] *= c
-            np.multiply(rates[k], dt, out=nxt)
-            np.add(q, nxt, out=nxt)
-            if not clear:  # (a clear tick's q + qd dt is more than v_max dt inside the limits)
-                np.maximum(nxt, lo_q, out=nxt)
-                np.minimum(nxt, hi_q, out=nxt)
-        else:
-            kappa = 1.0
-            U, S, Vt = svd(J)
-            sigma[k] = S[-1]
-            V = np.array([sd * u + gain * x for u, x in zip(units, e_task, strict=False)])
-            failure, qd = pinv_step(robot, U, S, Vt, V, s, q, dt, limits)
-            if failure is not None:
-                n = k + 1
-                break
-            if capped:
-                qd = qd * speed_scale(J_now, qd, p_list, lin_cap, ang_cap)
-            rates[k] = qd
-            np.multiply(qd, dt, out=nxt)
-            np.add(q, nxt, out=nxt)
-        q, tau = nxt, tau + kappa * dt
-        if kappa != 1.0:  # the tabulated setpoints no longer apply
-            nominal_clock, block_end, block_size = False, 0, _FIRST_BLOCK
-        elif not nominal_clock:
-            nominal_clock = True
-    steps = n - 1
-    active = np.zeros(steps, dtype=bool)
-    if dls:
-        R, B = rates[:steps], bounds[:steps]
-        near = (R <= B[:, 0] + ACTIVE_TOLERANCE) | (R >= B[:, 1] - ACTIVE_TOLERANCE)
-        active = np.asarray(near.any(axis=1))
-    return RateRun(
-        dt=dt,
-        nominal_ticks=nominal,
-        nominal_duration=float(timing.duration),
-        positions=positions[:n],
-        rates=rates[:n],
-        s=s_log[:n],
-        sigma=sigma[:steps],
-        damping=lam_log[:steps],
-        time_scale=scale[:steps],
-        active=active,
-        iterations=its[:steps],
-        solve_time=times[:steps],
-        fallbacks=int(fallbacks),
-        tracking_position=track_p[:n],
-        tracking_orientation=track_o[:n],
-        failure=failure,
-    )
+        kappa = controller.step(k, q, J_now, e_task, s, sd, unit_twist, units)
+        if controller.failure is not None:
+            return k + 1, controller.failure
+        q = positions[k + 1]
+        clock.advance(kappa, dt)
+    return total + 1, None

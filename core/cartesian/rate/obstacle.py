@@ -15,7 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.cartesian.rate.control import RateRun, simulate
+from core.cartesian.rate.control import simulate
+from core.cartesian.rate.ticks import RateRun
 from core.cartesian.task import CartesianTask
 from core.clearance import approach_text
 from core.errors import Collision

@@ -2,9 +2,12 @@
 
 ``result_of`` turns a ``core.cartesian.rate.control.RateRun`` into a finished ``CartesianResult``:
 
-- Sampling: ``sample_period`` or ``samples`` over the run; positions interpolated linearly between
-  ticks (exactly the explicit-Euler path), velocities the rates commanded over the tick, zero at the
-  first and last point (rest to rest), accelerations by finite differences of the sampled velocities.
+- Sampling: ``sample_period`` or ``samples`` over the run. The returned motion is the C2 cubic
+  spline of ``core.cartesian.rate.smooth``: the controller's velocity (each tick's rate reached by
+  a ramp, half a tick late) smoothed on the returned times, so that velocities and accelerations
+  are the exact derivatives of the returned positions (acceleration linear between points) and
+  stay within the bounds the ticks kept; it ends at rest one tick after the last rates when those
+  are within a tick's acceleration of zero (the run's end test asks for it), else braked below.
 - Partial plans (``allow_partial``): the prefix ends where the failure happened (``resolved_rate``)
   or, for the DLS, at the furthest point along the line before the tool first left the tolerance
   band. The prefix is braked to rest along the same joint path: original timing up to ``u_b``, then
@@ -27,17 +30,25 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from scipy.interpolate import CubicHermiteSpline
 
 from core.cartesian.check import VIOLATION_SLACK, finish
 from core.cartesian.partial import partial_warning
-from core.cartesian.rate.control import GOAL_FRACTION, RateRun
+from core.cartesian.rate.control import GOAL_FRACTION
 from core.cartesian.rate.obstacle import blocking_contact
 from core.cartesian.rate.qp import SINGULAR_REGION
+from core.cartesian.rate.smooth import smooth_motion, tick_velocity
+from core.cartesian.rate.ticks import RateRun
 from core.cartesian.rim import controller_exit
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.errors import Infeasible
+from core.kinematics import Kinematics
+from core.path import Path
+from core.path.line import pose_error
 from core.trajectory import Trajectory, sample_times
 
+LABEL_CHECKS = 16
+"""Points per returned interval at which ``configuration_changes`` reads the label."""
 GOAL_CONFIGURATION_WARNING = 1e-3
 """[rad] End configuration farther than this from ``q_goal``: a warning."""
 _CHUNK = 20_000
@@ -76,11 +87,43 @@ def result_of(task: CartesianTask, run: RateRun, method: str) -> CartesianResult
         strayed = _strayed(task, line, run)  # (the 200 rule's answer, naming the cause)
         if strayed is not None:
             raise strayed
-    result = replace(result, diagnostics=_diagnostics(task, run, method, result))
-    warnings = _warnings(task, run, result)
+    diagnostics = _diagnostics(task, run, method, result)
+    warnings = _warnings(task, run, method, replace(result, diagnostics=diagnostics))
+    if not task.keep_configuration:  # (with it, a change is 422 branch_flip in finish)
+        changes = configuration_changes(task.robot, line, result.trajectory)
+        diagnostics["configuration_changes"] = changes
+        warnings += [
+            f"the configuration changes from {c['from']} to {c['to']} at s={c['s']:.4f} "
+            "(keep_configuration is false)"
+            for c in changes
+        ]
+    result = replace(result, diagnostics=diagnostics)
     if detour is not None and run.failure is None:  # allow_violations: the detour is accepted
         warnings.append(f"the tool left the line to keep the clearance: {detour.failure.detail}")
     return replace(result, warnings=tuple(warnings))
+
+
+def configuration_changes(robot: Kinematics, line: Path, traj: Trajectory) -> list[dict[str, Any]]:
+    """Each change of configuration label along ``traj`` as ``{"s", "from", "to"}``: labels at
+    the returned points and ``LABEL_CHECKS`` points of the cubic between each two (Hermite from
+    the returned velocities: the returned motion), ``s`` the line parameter of the tool at the
+    first point with the new label."""
+    q, t = traj.positions, traj.times
+    if robot.configuration(q[0]) is None or len(t) < 2:
+        return []
+    spline = CubicHermiteSpline(t, q, traj.velocities, axis=0)
+    steps = np.arange(LABEL_CHECKS) / LABEL_CHECKS
+    dense_t = np.append((t[:-1, None] + np.diff(t)[:, None] * steps).ravel(), t[-1])
+    dense = spline(dense_t)
+    labels = robot.configurations(dense)
+    at = [i for i in range(1, len(labels)) if labels[i] != labels[i - 1]]
+    if not at:
+        return []
+    s = line.deviation(robot.fk_many(dense[at])).s
+    return [
+        {"s": float(x), "from": str(labels[i - 1]), "to": str(labels[i])}
+        for x, i in zip(s, at, strict=True)
+    ]
 
 
 def _along_line(task: CartesianTask, line, positions: np.ndarray) -> tuple[np.ndarray, int]:
@@ -115,11 +158,13 @@ def _strayed(task: CartesianTask, line, run: RateRun) -> Infeasible | None:
     k = int(np.argmax(worst))
     if worst[k] <= 1.0 + VIOLATION_SLACK:
         return None
-    step = min(k, len(run.sigma) - 1)
-    if step >= 0 and run.damping[step] > 0.0:
-        why = f"damped near a singularity (smallest singular value {run.sigma[step]:.2e})"
-    elif step >= 0 and run.active[step]:
-        why = "its joint rate bounds (velocity or position limits) were active"
+    # the cause: what held between the first tick outside the band and the worst one
+    out = np.flatnonzero(worst > 1.0 + VIOLATION_SLACK)
+    span = slice(int(out[0]) if out.size else k, min(k, len(run.sigma) - 1) + 1)
+    if span.start < span.stop and (run.sigma[span] < SINGULAR_REGION).any():
+        why = f"damped near a singularity (smallest singular value {run.sigma[span].min():.2e})"
+    elif span.start < span.stop and run.active[span].any():
+        why = "its joint rate bounds (velocity, acceleration or position limits) were active"
     else:
         why = "it lagged behind the setpoint"
     return Infeasible(
@@ -138,34 +183,58 @@ def _strayed(task: CartesianTask, line, run: RateRun) -> Infeasible | None:
 def _sample(
     task: CartesianTask, run: RateRun, m: int, brake: bool
 ) -> tuple[Trajectory, np.ndarray]:
-    """Trajectory over ticks ``0..m`` (braked to rest when ``brake``) and the setpoint s per point."""
+    """Trajectory over ticks ``0..m`` and the setpoint s per point: the controller's velocity
+    (``tick_velocity``, half a tick late) smoothed on the returned times (``smooth_motion``),
+    ending at rest by a last ramp when the run's last rates are within one tick's acceleration,
+    else (and when ``brake``) braked to rest by the path clock."""
     names, dt = tuple(task.robot.joint_names), run.dt
     if m == 0:  # nothing was executed: the arm stays where it is
         times = np.array([0.0, dt])
         zeros = np.zeros((2, run.positions.shape[1]))
         return Trajectory(times, run.positions[[0, 0]], zeros, zeros, names), np.zeros(2)
-    u_end = m * dt
+    step = np.asarray(task.robot.acceleration_limits, dtype=float) * dt
+    to_rest = not brake and bool(np.all(np.abs(run.rates[m - 1]) <= step * (1.0 + 1e-9)))
+    tau, w = tick_velocity(run.rates, dt, m, to_rest)
+    u_end = float(tau[-1])
     u_b, a = u_end, 0.0
     peak = np.abs(run.rates[:m]).max(axis=0)
-    if brake and np.any(peak > 0):
+    if not to_rest and np.any(peak > 0):
         moving = peak > 0
         a = float(np.min(np.asarray(task.robot.acceleration_limits)[moving] / peak[moving]))
         u_b = u_end - 0.5 / a
         if u_b < 0.0:
             u_b, a = 0.0, 0.5 / u_end
     duration = u_end if a == 0.0 else u_b + 1.0 / a
+
+    def clock(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # tau(t) and its rate
+        after = np.maximum(t - u_b, 0.0)
+        u = np.minimum(np.minimum(t, u_b) + after - 0.5 * a * after**2, u_end)
+        return u, np.clip(1.0 - a * after, 0.0, 1.0)
+
+    def velocity(t: np.ndarray) -> np.ndarray:
+        u, du = clock(t)
+        idx = np.clip(np.floor(u / dt).astype(int), 0, len(w) - 2)
+        frac = np.clip(u / dt - idx, 0.0, 1.0)[:, None]
+        return (w[idx] + frac * (w[idx + 1] - w[idx])) * du[:, None]
+
     times = sample_times(duration, task.sample_period, task.samples)
-    after = np.maximum(times - u_b, 0.0)
-    u = np.minimum(np.minimum(times, u_b) + after - 0.5 * a * after**2, u_end)
-    du = np.clip(1.0 - a * after, 0.0, 1.0)
-    idx = np.clip(np.floor(u / dt + 1e-9).astype(int), 0, m - 1)
-    frac = np.clip(u / dt - idx, 0.0, 1.0)[:, None]
-    P = run.positions
-    positions = P[idx] + frac * (P[idx + 1] - P[idx])
-    velocities = run.rates[idx] * du[:, None]
-    velocities[0] = velocities[-1] = 0.0
-    accelerations = np.gradient(velocities, times, axis=0)
-    s_points = np.interp(u, np.arange(len(run.s)) * dt, run.s)
+    positions, velocities, accelerations = smooth_motion(times, velocity, run.positions[0])
+    # where the smoothing leaves the tool off the ticks' end by more than the run's own end test
+    # (coarse returned points), it ends where the ticks' velocity takes the arm (braked or not)
+    end = run.positions[0] + np.trapezoid(w, dx=dt, axis=0)
+    off_p, off_o = pose_error(task.robot.fk(positions[-1]), task.robot.fk(end))
+    if off_p > GOAL_FRACTION * task.position_tolerance or (
+        off_o > GOAL_FRACTION * task.orientation_tolerance
+    ):
+        limits = (
+            np.asarray(task.robot.velocity_limits),
+            np.asarray(task.robot.acceleration_limits),
+        )
+        positions, velocities, accelerations = smooth_motion(
+            times, velocity, run.positions[0], end, limits
+        )
+    velocities[0] = velocities[-1] = 0.0  # (rest: exactly, not to rounding)
+    s_points = np.interp(clock(times)[0] - 0.5 * dt, np.arange(len(run.s)) * dt, run.s)
     return Trajectory(times, positions, velocities, accelerations, names), s_points
 
 
@@ -208,13 +277,13 @@ def _diagnostics(
     return diag
 
 
-def _warnings(task: CartesianTask, run: RateRun, result: CartesianResult) -> list[str]:
+def _warnings(task: CartesianTask, run: RateRun, method: str, result: CartesianResult) -> list[str]:
     """What a client should know: active limits, lag, damping, accepted deviation."""
     out: list[str] = list(run.timing_warnings)
     diag = result.diagnostics
     if diag["active_limit_steps"]:
         out.append(
-            f"joint rate bounds (velocity or position limits) were active in "
+            f"joint rate bounds (velocity, acceleration or position limits) were active in "
             f"{diag['active_limit_steps']} of {len(run.sigma)} control ticks"
         )
     if diag["time_scaled_steps"]:
@@ -262,7 +331,12 @@ def _warnings(task: CartesianTask, run: RateRun, result: CartesianResult) -> lis
         j = int(np.argmax(peak / limit))
         out.append(
             f"joint {task.robot.joint_names[j]} accelerates at up to {peak[j]:.3g} (limit "
-            f"{limit[j]:.3g}): resolved-rate control bounds joint rates, not accelerations"
+            f"{limit[j]:.3g}): "
+            + (
+                "resolved_rate bounds joint rates, not accelerations"
+                if method == "resolved_rate"
+                else "allow_violations lets resolved_rate_dls exceed the acceleration limits"
+            )
         )
     if task.q_goal is not None and run.failure is None:
         apart = float(np.abs(result.trajectory.positions[-1] - task.q_goal).max())

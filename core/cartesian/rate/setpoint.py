@@ -125,3 +125,43 @@ def setpoint_for(path: Path, timing: Profile, dt: float, n: int) -> LineSetpoint
     if isinstance(path, StraightLine):
         return LineSetpoint(path, timing, dt, n)
     return PathSetpoint(path, timing, dt, n)
+
+
+FIRST_BLOCK, MAX_BLOCK = 16, 1024
+"""Setpoints tabulated per block of ticks: the first after a slowed tick, and the most (doubling)."""
+
+
+class SetpointClock:
+    """The setpoint of each tick on the path clock ``tau`` [s]: tabulated a block of ticks at a
+    time (``block``) while the clock runs at rate 1, one by one (``__call__``) after a slowed tick.
+
+    Args:
+        setpoint: The path's setpoint table (``setpoint_for``).
+        n: Ticks of the run (no block reaches past them).
+    """
+
+    def __init__(self, setpoint: LineSetpoint | PathSetpoint, n: int) -> None:
+        self.setpoint, self.n, self.tau = setpoint, n, 0.0
+        self._nominal, self._at, self._end, self._size = True, 0, 0, FIRST_BLOCK
+        self._block: tuple = ()
+
+    def at(self, k: int) -> tuple[float, float, list[float], np.ndarray, np.ndarray]:
+        """``(s, s' [1/s], p_d (3 floats), R_d (3, 3), d(pose)/ds (6,))`` at tick ``k``."""
+        if self._nominal:
+            if k >= self._end:
+                count = min(self._size, self.n - k)
+                self._block = self.setpoint.block(self.tau, count)
+                self._at, self._end, self._size = k, k + count, min(2 * self._size, MAX_BLOCK)
+            j = k - self._at
+            s, sd, p, R, u = self._block
+            return s[j], sd[j], p[j], R[j], u[j]
+        s1, sd1, p_d, R_flat, u1 = self.setpoint(self.tau)
+        return s1, sd1, p_d, np.array(R_flat).reshape(3, 3), u1
+
+    def advance(self, kappa: float, dt: float) -> None:
+        """The clock after a tick of ``dt`` [s] run at rate ``kappa``."""
+        self.tau = self.tau + kappa * dt
+        if kappa != 1.0:  # the tabulated setpoints no longer apply
+            self._nominal, self._end, self._size = False, 0, FIRST_BLOCK
+        elif not self._nominal:
+            self._nominal = True

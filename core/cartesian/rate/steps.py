@@ -17,6 +17,8 @@ from core.kinematics import SINGULAR_VALUE_THRESHOLD
 from core.limits import outside, over_speed
 
 """``resolved_rate`` refuses to step below this smallest singular value (J^+ would amplify 1000x)."""
+STUCK_STRIDE = 10
+"""Ticks between the positions ``stuck`` reads for the furthest point the tool reached."""
 TIME_SCALE_MARGIN = 0.95
 """The path clock slows so the feedforward rates use at most this share of the velocity limits,
 leaving the rest to the feedback term."""
@@ -165,13 +167,19 @@ def pinv_step(robot, U, S, Vt, V, s, q, dt, limits):
     return None, qd
 
 
-def stuck(robot, line, q, sigma, first_limit, at_end, s, elapsed) -> PlanningError:
-    """Why a DLS run ended short of the goal: a pinned joint, the velocity limits (the path clock
-    did not reach the end), damping, or plain non-convergence."""
-    s_reached = float(line.deviation(robot.fk(q)[None]).s[0])
+def stuck(
+    robot, line, q, sigma, first_limit, at_end, s, elapsed, held=None, path=None
+) -> PlanningError:
+    """Why a DLS run ended short of the goal: a pinned joint (at or beyond ``held`` ``(2, dof)``,
+    default the position limits), the velocity limits (the path clock did not reach the end),
+    damping, or plain non-convergence. The tool "stopped at" the furthest line parameter it
+    reached over ``path`` (the run's positions, every ``STUCK_STRIDE``-th; default ``q`` alone): a
+    run that hovers about a singularity at the rim ends anywhere in its swing."""
+    qs = q[None] if path is None else np.vstack([path[::STUCK_STRIDE], q[None]])
+    s_reached = float(line.deviation(robot.fk_many(qs)).s.max())
     if first_limit is not None:
         s_hit, j = first_limit
-        lo, hi = robot.position_limits[j]
+        lo, hi = robot.position_limits[j] if held is None else held[:, j]
         if q[j] <= lo or q[j] >= hi:
             detail = (
                 f"joint {robot.joint_names[j]} is held at its position limit (reached at "

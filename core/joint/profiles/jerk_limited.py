@@ -104,16 +104,15 @@ class JerkLimited(ProfileKind):
         inp.target_acceleration = motion.goal.accelerations
         inp.max_velocity, inp.max_acceleration, inp.max_jerk = vmax, amax, jmax
         if duration is not None:
-            inp.minimum_duration = max(float(duration), durations.MIN_DURATION)
+            inp.minimum_duration = float(duration)
         trajectory = calculate(inp, joint_names)
         found = trajectory.duration
         if duration is None:
-            if found < durations.MIN_DURATION:  # no motion: stretch to the floor
+            if not found > 0.0:  # no motion (within Ruckig's precision): rest for the floor
                 inp.minimum_duration = durations.MIN_DURATION
                 trajectory = calculate(inp, joint_names)
-            return JerkLimitedProfile(
-                trajectory, motion.start, motion.goal, max(found, durations.MIN_DURATION)
-            )
+                found = durations.MIN_DURATION
+            return JerkLimitedProfile(trajectory, motion.start, motion.goal, found)
         if abs(found - duration) > DURATION_TOLERANCE * duration:
             inp.minimum_duration = None
             shortest = calculate(inp, joint_names).duration

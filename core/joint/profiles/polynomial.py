@@ -86,11 +86,13 @@ class PolynomialProfile(EndPinned):
         a0: np.ndarray | None = None,
         a1: np.ndarray | None = None,
     ) -> None:
-        T = duration if isinstance(duration, float) else np.asarray(duration, dtype=float)
+        T: float | np.ndarray = (
+            duration if isinstance(duration, float) else np.asarray(duration, dtype=float)
+        )
         scalar = isinstance(T, float) or T.ndim == 0
         if scalar:
             T = float(T)  # a Python float multiplies arrays faster than a 0-d array
-        self.duration = T if scalar else np.nan
+        self.duration = float(T) if scalar else np.nan
         self._T = T
         self._peaks: Peaks | None = None
         if scalar:

@@ -250,14 +250,14 @@ def test_iteration_cap_stops_ipopt():
 def test_iteration_cap_without_any_accepted_count_is_no_convergence(monkeypatch):
     # A capped solve may still land on a feasible point (accepted: feasibility is what counts);
     # here no candidate passes the check, so the capped solves leave nothing: no_convergence.
-    monkeypatch.setattr(dn._KnotSearch, "_within", lambda self, knots: False)
+    monkeypatch.setattr(dn._KnotSearch, "_within", lambda self, knots: (False, False))
     with pytest.raises(NoConvergence) as err:
         plan_bounded_deviation_nlp(gantry_task(periods=1.0, amplitude=0.004), max_iter=1)
     assert "Maximum_Iterations_Exceeded" in err.value.extra["statuses"]
 
 
 def test_no_smaller_count_returns_taylors_knots_with_a_warning(monkeypatch):
-    monkeypatch.setattr(dn._KnotSearch, "_within", lambda self, knots: False)
+    monkeypatch.setattr(dn._KnotSearch, "_within", lambda self, knots: (False, False))
     task = gantry_task(periods=1.0, amplitude=0.004)
     result = plan_bounded_deviation_nlp(task)
     assert_valid(task, result)

@@ -188,6 +188,28 @@ def test_no_motion_and_ruckig_duration_cap() -> None:
         plan_joint("jerk_limited", PointToPoint.create([0.0], [1e4]), slow)
 
 
+@pytest.mark.parametrize(
+    ("distance", "start_velocity"), [(1e-4, 0.0), (1e-5, 0.0), (1e-4, 1.0), (3e-4, 0.5)]
+)
+def test_moves_shorter_than_a_millisecond_keep_ruckigs_exact_duration(
+    distance: float, start_velocity: float
+) -> None:
+    """Issue 25 item 12: a sub-millisecond move was stretched to 1 ms with no warning."""
+    limits = JointLimits(np.ones(1), np.full(1, 1e4), jerk=np.full(1, 1e8))
+    motion = PointToPoint.create([0.0], [distance], [start_velocity], [start_velocity])
+    expected = ruckig_direct(motion, limits).duration
+    assert 0.0 < expected < 1e-3
+    plan = plan_joint("jerk_limited", motion, limits)
+    assert plan.profile.duration == pytest.approx(expected, rel=1e-12)
+    assert plan.trajectory.times[-1] == pytest.approx(expected, rel=1e-12)
+    np.testing.assert_allclose(plan.trajectory.positions[-1], [distance], rtol=0, atol=1e-15)
+    if start_velocity:
+        return
+    # a given duration under 1 ms is kept too (rest to rest: any longer one is feasible)
+    given = plan_joint("jerk_limited", motion, limits, duration=1.5 * expected)
+    assert given.trajectory.times[-1] == pytest.approx(1.5 * expected, rel=1e-12)
+
+
 def test_peaks_of_a_known_profile() -> None:
     # Rest to rest, 1 joint, long move: jerk 10 for 0.2 s reaches a = 2, cruise at v = 1.
     limits = JointLimits(np.ones(1), np.full(1, 2.0), jerk=np.full(1, 10.0))
