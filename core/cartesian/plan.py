@@ -1,13 +1,15 @@
 """Plan a Cartesian task: the one pipeline of every method.
 
-    check_start -> METHODS[method] -> finish -> enforce (-> shorter prefix) -> collide -> result
+    check_start -> METHODS[method] -> finish -> enforce (-> shorter prefix) -> effort -> collide
+    -> result
 
 ``plan`` is the one entry point the service calls (``/v1/trajectories/cartesian``, every row of
 ``/v1/compare``, every LIN/CIRC segment of a program). The start (and a goal given as joints) is
 checked for collisions before any method runs; every method validates its own entry (it may be
 called directly) and returns a ``CartesianResult``; ``plan`` finishes it when the method did not
-(limits, dense deviation, singular values), applies the 200 rule (``check.enforce``), and hands it
-to the collision stage (``core.cartesian.stop``: the continuous check, and with ``allow_partial``
+(limits, dense deviation, singular values), applies the 200 rule (``check.enforce``), slows it
+until its torque keeps the effort limits (``core.cartesian.effort``: with dynamics, ``peak_effort``
+in its diagnostics), and hands it to the collision stage (``core.cartesian.stop``: the continuous check, and with ``allow_partial``
 the stop before a contact, re-planned by the same method). No trajectory leaves core unchecked.
 """
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 from functools import partial
 
 from core.cartesian.check import enforce, finish
+from core.cartesian.effort import held_effort
 from core.cartesian.methods import METHODS, Planner
 from core.cartesian.partial import PARTIAL_ERRORS, SHORTER_ERRORS, plan_partial
 from core.cartesian.stop import check_start, collide
@@ -51,7 +54,7 @@ def planned(task: CartesianTask, planner: Planner) -> CartesianResult:
     if result.deviation is None:
         result = finish(task, result)
     try:
-        return enforce(task, result)
+        return held_effort(task, enforce(task, result))
     except SHORTER_ERRORS:
         failure = result.failure
         located = isinstance(failure, PARTIAL_ERRORS) and failure.s is not None
@@ -65,4 +68,4 @@ def _checked(planner: Planner, task: CartesianTask) -> CartesianResult:
     result = planner(task)
     if result.deviation is None:
         result = finish(task, result)
-    return enforce(task, result)
+    return held_effort(task, enforce(task, result))

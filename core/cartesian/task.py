@@ -16,9 +16,10 @@ from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.measure import DeviationReport
 from core.collisions import ClearanceReport
 from core.errors import PlanningError
-from core.kinematics import Clearance, Kinematics
+from core.kinematics import Clearance, Dynamics, Kinematics
 from core.path import Path, build_path
 from core.timing import DEFAULT_LAW
+from core.timing.path_constraints import Effort
 from core.trajectory import Trajectory
 
 MAX_TICKS = 1_000_000
@@ -80,6 +81,10 @@ class CartesianTask:
             lets the rate controllers pass a wrist singularity (the label changes, reported in
             ``diagnostics["configuration_changes"]``); the other methods follow one IK branch
             anyway.
+        effort: Effort limits with the robot's dynamics (``core.cartesian.effort``: the plan is
+            slowed until they hold; not with ``duration``), or None.
+        dynamics: The robot's dynamics, for ``peak_effort`` (None: none known).
+        gravity: Gravity ``(3,)`` [m/s^2] in the base frame for ``peak_effort`` (None: default).
     """
 
     robot: Kinematics
@@ -107,6 +112,9 @@ class CartesianTask:
     clearance: Clearance | None = None
     collision_check: Clearance | None = None
     keep_configuration: bool = True
+    effort: Effort | None = None
+    dynamics: Dynamics | None = None
+    gravity: np.ndarray | None = None
 
     def line(self) -> Path:
         """The path from FK(q_start) to T_goal (the straight line unless ``path`` says otherwise);

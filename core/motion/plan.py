@@ -28,6 +28,8 @@ from core.clearance import Clearance
 from core.collisions import ClearanceReport, End, check_ends, checked, end_collision
 from core.errors import InputError, NoPathFound
 from core.joint.blended_path import BlendedPath
+from core.joint.effort import held_motion
+from core.kinematics import Dynamics
 from core.limits import JointLimits
 from core.motion.certify import Certifier
 from core.motion.clearance import GroupClearance
@@ -38,7 +40,7 @@ from core.motion.sampler import RRTConnect, Sampler, SearchProblem
 from core.motion.shorten import path_length, shorten
 from core.motion.smooth import smooth
 from core.motion.timing import TIMINGS
-from core.timing.path_constraints import PathLimits
+from core.timing.path_constraints import Effort, PathLimits
 from core.trajectory import MAX_POINTS, Trajectory
 
 DEFAULT_SAMPLER: Sampler = RRTConnect()
@@ -213,6 +215,11 @@ class MotionTask:
         path_limits: What ``time_optimal`` keeps along the path (``core.timing.path_constraints``:
             joint velocity and acceleration, effort), built by the route; default: the velocity
             and acceleration of ``limits``.
+        effort: Effort limits with the robot's dynamics, or None: a row of ``path_limits`` for
+            ``time_optimal``; a ``jerk_limited`` motion is slowed until its torque keeps them
+            (``core.joint.effort.held_motion``).
+        dynamics: The robot's dynamics, for ``peak_effort`` (None: none known).
+        gravity: Gravity ``(3,)`` [m/s^2] in the base frame for ``peak_effort`` (None: default).
     """
 
     q_start: np.ndarray
@@ -227,6 +234,9 @@ class MotionTask:
     joint_names: tuple[str, ...] = ()
     deadline: Deadline = NO_DEADLINE
     path_limits: PathLimits | None = None
+    effort: Effort | None = None
+    dynamics: Dynamics | None = None
+    gravity: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -244,6 +254,7 @@ class MotionResult:
         timing: The timing used (one of ``TIMINGS``).
         clearance: The usual continuous check of the returned motion (``core.collisions``), None
             when no pair is checked.
+        peak_effort: |tau| [N m or N] per joint over the motion (None without dynamics).
     """
 
     trajectory: Trajectory
@@ -255,6 +266,7 @@ class MotionResult:
     configuration: str | None
     timing: str
     clearance: ClearanceReport | None = None
+    peak_effort: np.ndarray | None = None
 
 
 def clear_ends(
@@ -325,8 +337,11 @@ def plan_motion(
         )
         waypoints, length = found.knots, path.length
     straight = float(np.linalg.norm(q_goal - task.q_start))
+    trajectory, peak = held_motion(
+        trajectory, task.effort, task.dynamics, task.gravity, task.joint_names, task.deadline
+    )
     report = checked(trajectory, clearance if len(clearance.pair_names) else None)
     return MotionResult(
         trajectory, waypoints, float(length), float(length / straight) if straight > 0 else 1.0,
-        found.planner, q_goal, goals.labels[found.goal], task.timing, report,
+        found.planner, q_goal, goals.labels[found.goal], task.timing, report, peak,
     )  # fmt: skip

@@ -17,14 +17,23 @@ the position at t (``allow_partial`` when a collision is ahead, ``core.program.s
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from core.errors import Infeasible, PlanningError, TooLarge
+from core.joint.effort import effort_stretch
 from core.program.chunk import ChunkTiming
+from core.program.effort import program_peak_effort, rest_effort
 from core.program.pieces import Piece, ProfileTiming, time_pieces
 from core.program.report import ProgramResult, SegmentResult, report
-from core.program.returned import ChunkMotion, chunk_motion
+from core.program.returned import (
+    SWITCH_GAP,
+    ChunkMotion,
+    ReturnedMotion,
+    chunk_motion,
+    switch_marks,
+)
 from core.program.timed import Timed, TimedProgram, placed, restretched
 from core.timing.path_profile import stretch_for
 from core.trajectory import (
@@ -56,7 +65,7 @@ def returned_times(timed: TimedProgram) -> np.ndarray:
         )
     regular = sample_times(timed.duration, task.sample_period, task.samples, MAX_POINTS)
     bounds = [t for _, _, ch in timings for p in ch for t in p.times]
-    switches = [offset + timing.switch_times() for offset, timing, _ in timings]
+    switches = [offset + switch_marks(timing) for offset, timing, _ in timings]
     marks = np.unique(np.concatenate([bounds, *switches]))
     # a regular point much closer to a mark than the spacing goes (the mark stays): an interval
     # of microseconds between returned points makes the cubic through them ill-conditioned
@@ -79,15 +88,16 @@ def motions(timed: TimedProgram) -> list[ChunkMotion]:
     out = []
     for offset, timing, _ in timed.timings:
         end = offset + timing.duration
-        inner = times[(times > offset + MIN_GAP) & (times < end - MIN_GAP)]
+        inner = times[(times > offset + SWITCH_GAP / 2) & (times < end - SWITCH_GAP / 2)]
         out.append(chunk_motion(offset, timing, np.concatenate([[offset], inner, [end]])))
     return out
 
 
 def settled(timed: TimedProgram) -> TimedProgram:
     """``timed`` with every chunk whose returned motion (the cubic through its returned points)
-    overshoots a joint velocity or acceleration limit run that much slower (velocity by 1/k,
-    acceleration by 1/k^2), until none does (``SETTLE_ROUNDS`` at most)."""
+    overshoots a joint velocity or acceleration limit, or an effort limit, run that much slower
+    (velocity by 1/k, acceleration by 1/k^2; the torque without gravity by 1/k^2), until none
+    does (``SETTLE_ROUNDS`` at most)."""
     if not timed.timings:
         return timed
     robot = timed.task.robot
@@ -99,6 +109,8 @@ def settled(timed: TimedProgram) -> TimedProgram:
         for k, motion in enumerate(motions(timed)):
             r_v, r_a = motion.ratios(v_max, a_max, timed.timings[k][2])
             f = stretch_for((r_v, r_a))
+            if timed.task.effort is not None:
+                f = max(f, effort_stretch(motion, timed.task.effort, motion.times))
             if f > 1.0:
                 factors[k] = f
         if not factors:
@@ -124,17 +136,8 @@ def assemble(timed: TimedProgram) -> ProgramResult:
     peaks = Peaks(*(np.max([getattr(m.peaks, f) for m in chunks], axis=0) for f in Peaks._fields))
     traj = Trajectory(times, q, qd, qdd, task.robot.joint_names, peaks=peaks)
     spans = {(p.owner, p.blend): p.times for _, _, ch in timings for p in ch}
-    starts = np.array([m.offset for m in chunks])
-
-    def positions(t: np.ndarray) -> np.ndarray:
-        which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(chunks) - 1)
-        out = np.empty((len(t), q.shape[1]))
-        for k, m in enumerate(chunks):
-            sel = which == k
-            out[sel] = m.positions(t[sel])
-        return out
-
-    result = report(task, timed.lay, timed.geo, spans, traj, positions)
+    motion = ReturnedMotion(chunks)
+    result = report(task, timed.lay, timed.geo, spans, traj, motion.positions)
     planned = {sp.index for sp in timed.geo.segments}
     ignored = tuple(
         f"segment {i}: profile {seg.profile!r} ignored: a PTP inside a blend follows the "
@@ -151,6 +154,9 @@ def assemble(timed: TimedProgram) -> ProgramResult:
     # rest-to-rest stretches the program has (stops + 1).
     result.diagnostics["stretch"] = max(timing.stretch for _, timing, _ in timings)
     result.diagnostics["stops"] = len(timings) - 1
+    effort = program_peak_effort(task, motion, traj)
+    if effort is not None:
+        result.diagnostics["peak_effort"] = effort
     return result
 
 
@@ -176,8 +182,11 @@ def at_rest(timed: TimedProgram) -> ProgramResult:
         SegmentResult(i, seg.type, 0.0, 0.0, None, {"skipped": True})
         for i, seg in enumerate(task.segments)
     )
-    diagnostics = {"max_position_deviation": 0.0, "max_orientation_deviation": 0.0,
-                   "min_singular_value": None, "stretch": 1.0, "stops": 0}  # fmt: skip
+    diagnostics: dict[str, Any] = {"max_position_deviation": 0.0, "max_orientation_deviation": 0.0,
+                                   "min_singular_value": None, "stretch": 1.0, "stops": 0}  # fmt: skip
+    effort = rest_effort(task, q[0])
+    if effort is not None:
+        diagnostics["peak_effort"] = effort
     return ProgramResult(traj, segments, (*timed.lay.warnings, STILL), 1.0, None, diagnostics)
 
 

@@ -43,6 +43,7 @@ from core.program.geometry.paths import (
     intervals,
     sample_grid,
 )
+from core.program.ptp_planned import planned_ptp, planned_segment
 from core.program.segments import ProgramTask, Segment
 from core.program.validate import Layout
 
@@ -222,7 +223,19 @@ def _cuts(positions, r_in: float, r_out: float, i: int) -> tuple[float, float]:
 
 def _ptp(task: ProgramTask, i: int, q: np.ndarray, r_in: float, r_out: float) -> SegmentPath:
     robot, seg = task.robot, task.segments[i]
-    dq = _ptp_goal(task, i, seg, q) - q
+    goal = _ptp_goal(task, i, seg, q)
+    planned = planned_ptp(task, i, q, goal) if np.abs(goal - q).max() > 0.0 else None
+    if planned is not None:  # the collision-free planner's joint path
+        goal, found = planned
+        length = float(found.path.length)
+
+        def along(s: np.ndarray) -> np.ndarray:
+            return robot.fk_many(found.path(s * length))[:, :3, 3]
+
+        sp = planned_segment(i, task, q, found, _cuts(along, r_in, r_out, i))
+        sp.q[-1] = goal
+        return sp
+    dq = goal - q
 
     def positions(s: np.ndarray) -> np.ndarray:
         return robot.fk_many(q + s[:, None] * dq)[:, :3, 3]

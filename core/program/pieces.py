@@ -19,45 +19,21 @@ import numpy as np
 
 from core.errors import Infeasible, InputError, PlanningError
 from core.joint.synchronous import straight_ptp
-from core.kinematics import jacobians
 from core.limits import JointLimits
 from core.program.build import Geometry
 from core.program.chunk import ChunkPath, ChunkTiming
+from core.program.chunk_limits import chunk_limits
+from core.program.effort import held_effort, held_profile_effort, locate
+from core.program.piece import Piece
 from core.program.segments import ProgramTask
 from core.timing import DEFAULT_LAW, TIMING_LAWS, TimingSpec
-from core.timing.path_limits import PathLimits
 from core.trajectory import Peaks, Profile
 
 __all__ = ["Piece", "ProfileTiming", "chunks_of", "profile_kind", "time_pieces"]
 
-
-@dataclass
-class Piece:
-    """A segment's own part (``blend`` False) or the blend out of it, as joint samples.
-
-    Attributes:
-        owner: The segment's index in the request.
-        blend: Whether this is the blend out of ``owner``.
-        q: Joint samples (K, dof); the first is the previous piece's last in the chunk.
-        T: Tool poses at them (K, 4, 4).
-        scales: Velocity and acceleration scale of the joint limits.
-        tool_speed: Linear and angular tool speed limits [m/s, rad/s] (inf: none).
-        tool_acc: Linear and angular tool acceleration limits [m/s^2, rad/s^2] (inf: none).
-        s: Path parameter of the owner at each sample (K,) (its own part), None for a blend.
-        times: (start, end) [s], in the chunk once timed, in the program once placed.
-        knots: Time [s] in the chunk of each sample (K,), once timed (None: a profiled PTP).
-    """
-
-    owner: int
-    blend: bool
-    q: np.ndarray
-    T: np.ndarray
-    scales: tuple[float, float]
-    tool_speed: tuple[float, float]
-    tool_acc: tuple[float, float]
-    s: np.ndarray | None = None
-    times: tuple[float, float] = (0.0, 0.0)
-    knots: np.ndarray | None = None
+STOPPING_LAWS = frozenset({"time_optimal"})
+"""Laws that stop where a chunk's path turns back (``ChunkPath`` with ``reversals``); the others
+(a quintic spline s(t) through a grid) pass through the spline's tight turn there."""
 
 
 def chunks_of(task: ProgramTask, geo: Geometry) -> list[list[Piece]]:
@@ -108,34 +84,6 @@ def chunk_law(task: ProgramTask, chunk: list[Piece]) -> str:
     return other[0] if other else task.timing
 
 
-def _limits(task: ProgramTask, chunk: list[Piece], path: ChunkPath, keep: np.ndarray) -> PathLimits:
-    """The chunk's ``PathLimits`` at its (kept) samples, for the law ``chunk_law`` names."""
-    robot = task.robot
-    rows: dict[str, list[np.ndarray]] = {"v": [], "a": [], "ts": [], "ta": []}
-    for k, p in enumerate(chunk):
-        first = 0 if k == 0 else 1  # pieces share their junction sample
-        n = len(p.q) - first
-        rows["v"].append(np.tile(robot.velocity_limits * p.scales[0], (n, 1)))
-        rows["a"].append(np.tile(robot.acceleration_limits * p.scales[1], (n, 1)))
-        rows["ts"].append(np.tile(p.tool_speed, (n, 1)))
-        rows["ta"].append(np.tile(p.tool_acc, (n, 1)))
-    v, a, ts, ta = (np.concatenate(rows[key])[keep] for key in ("v", "a", "ts", "ta"))
-    # the tool's own positions along the joint path (FK of its samples): what the jerk-limited
-    # law bounds
-    tool = robot.fk_many(path.samples)[:, :3, 3]
-    # The tool's rate per unit s: J dq/ds (exact for the joint path, on or off the line).
-    J = jacobians(robot, path.samples)
-    twist = np.einsum("nij,nj->ni", J, path(path.knots, 1))
-    rate = np.stack([np.linalg.norm(twist[:, :3], axis=1), np.linalg.norm(twist[:, 3:], axis=1)])
-    asking = [
-        task.segments[p.owner].tool_jerks()
-        for p in chunk
-        if not p.blend and task.segments[p.owner].cartesian
-    ]
-    jerk = tuple(np.min(asking, axis=0).tolist()) if asking else None
-    return PathLimits(path.knots, v, a, rate.T, ts, ta, tool, jerk)  # type: ignore[arg-type]
-
-
 def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
     """Time one chunk; record each piece's (start, end) time and sample times in the chunk. None
     if it is still."""
@@ -152,11 +100,22 @@ def _time(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | None:
         return None
     keep = np.concatenate([[True], step > 1e-13])
     index = np.cumsum(keep) - 1  # old sample -> kept sample
-    path = ChunkPath(q[keep])
-    law = TIMING_LAWS[chunk_law(task, chunk)]
-    timing = ChunkTiming.of(
-        path, law(TimingSpec(path=path, limits=_limits(task, chunk, path, keep)))
+    name = chunk_law(task, chunk)
+    # a law that keeps its limits at every instant stops where the path turns back
+    path = ChunkPath(q[keep], junctions=index[starts[1:]], reversals=name in STOPPING_LAWS)
+    spots = [path.knots[index[a : b + 1]] for a, b in zip(starts, ends, strict=True)]
+    law = TIMING_LAWS[name]
+    spec = TimingSpec(
+        path=path,
+        limits=chunk_limits(task, chunk, path, keep, starts),
+        joint_names=tuple(task.robot.joint_names),
+        deadline=task.deadline,
     )
+    try:
+        timing = held_effort(task, ChunkTiming.of(path, law(spec), spec.limits))
+    except PlanningError as err:
+        locate(err, chunk, spots)
+        raise
     for p, a, b in zip(chunk, starts, ends, strict=True):
         p.times = (float(timing.knot_times[index[a]]), float(timing.knot_times[index[b]]))
         p.knots = timing.knot_times[index[a : b + 1]]
@@ -222,6 +181,11 @@ def _profile_time(task: ProgramTask, chunk: list[Piece], kind: str) -> ProfileTi
         if isinstance(err, InputError):
             err.field = ("segments", p.owner, "profile")
         raise
+    try:
+        profile = held_profile_effort(task, profile, robot.joint_names)  # type: ignore[assignment]
+    except PlanningError as err:
+        err.extra["segment"] = p.owner
+        raise
     p.times = (0.0, profile.duration)
     return ProfileTiming(profile, profile.duration)
 
@@ -234,6 +198,8 @@ def time_pieces(task: ProgramTask, chunk: list[Piece]) -> ChunkTiming | ProfileT
         return _time(task, chunk) if kind is None else _profile_time(task, chunk, kind)
     except PlanningError as err:  # e.g. an S-curve over Ruckig's duration cap
         err.extra.setdefault("segment", chunk[0].owner)
+        if err.extra.get("limit") == "effort" and err.field is None:
+            err.field = ("limits", "effort")
         if isinstance(err, Infeasible) and err.field is None:  # too slow: the smallest scale
             err.field = _slowest(task, chunk)
         raise

@@ -159,6 +159,8 @@ def report(
             "skipped": False,
             "duration": t1 - t0 + (blend[1] - blend[0] if blend else 0.0),
         }
+        if sp.planner is not None:  # a PTP found by the collision-free planner
+            diag["planner"] = sp.planner
         if sp.path is not None and t1 > t0:
             diag.update(_measured(task, sp, traj, sampler, (t0, t1)))
             worst_p = max(worst_p, diag["max_position_deviation"])

@@ -14,8 +14,10 @@ import numpy as np
 from core.budget import NO_DEADLINE, Deadline
 from core.cartesian.task import DEFAULT_MAX_ANGULAR_SPEED, DEFAULT_MAX_LINEAR_SPEED
 from core.joint.profiles import PROFILES
-from core.kinematics import Clearance, Kinematics
-from core.timing import DEFAULT_LAW
+from core.kinematics import Clearance, Dynamics, Kinematics
+from core.motion.clearance import GroupClearance
+from core.timing import DEFAULT_LAW, PROGRAM_DEFAULT
+from core.timing.path_constraints import Effort
 from core.timing.s_curve import DEFAULT_ANGULAR_JERK, DEFAULT_LINEAR_JERK
 from core.timing.speed_limited import DEFAULT_ANGULAR_ACCELERATION, DEFAULT_LINEAR_ACCELERATION
 
@@ -62,6 +64,8 @@ class Segment:
         orientation_tolerance: LIN/CIRC allowed orientation deviation [rad].
         method: LIN/CIRC: the ``core.cartesian.methods.METHODS`` entry that plans the segment's
             joint path on its line or arc (``core.program.build``).
+        planner: PTP: ``"collision_free"``: its joint motion is found around the environment's
+            obstacles (``core.program.ptp_planned``); None: the straight joint segment.
     """
 
     type: SegmentType
@@ -84,6 +88,7 @@ class Segment:
     position_tolerance: float = 1e-3
     orientation_tolerance: float = 1e-2
     method: str = "sampled"
+    planner: str | None = None
 
     def tool_jerks(self) -> tuple[float, float]:
         """S-curve tool jerk limits [m/s^3], [rad/s^3] (defaults where not given)."""
@@ -133,7 +138,15 @@ class ProgramTask:
             the start and every goal given as joints before planning, then the whole motion
             continuously), None: nothing to check.
         timing: The ``core.timing.TIMING_LAWS`` law of the stretches between stops whose LIN/CIRC
-            segments ask for no other (``s_curve``): ``DEFAULT_LAW``.
+            segments ask for no other (``s_curve``), one of ``JOINT_PATH_LAWS``:
+            ``"time_optimal"`` (``PROGRAM_DEFAULT``) or ``"jerk_limited"``.
+        effort: Effort limits with the robot's dynamics (``core.program.effort``), or None.
+        dynamics: The robot's dynamics, for ``peak_effort`` (None: none known).
+        gravity: Gravity ``(3,)`` [m/s^2] in the base frame for ``peak_effort`` (None: default).
+        seed: Seed of the collision-free planner of PTP segments (integer >= 0).
+        planner_clearance: The environment's clearance for that planner
+            (``core.motion.clearance.GroupClearance``), None: no environment (a PTP stays
+            straight).
     """
 
     robot: Kinematics
@@ -144,4 +157,9 @@ class ProgramTask:
     allow_partial: bool = False
     deadline: Deadline = NO_DEADLINE
     collision_check: Clearance | None = None
-    timing: str = DEFAULT_LAW
+    timing: str = PROGRAM_DEFAULT
+    effort: Effort | None = None
+    dynamics: Dynamics | None = None
+    gravity: np.ndarray | None = None
+    seed: int = 0
+    planner_clearance: GroupClearance | None = None

@@ -114,6 +114,8 @@ def segment_share(timed: TimedProgram, index: int, q: np.ndarray) -> float:
         pose = timed.task.robot.fk(np.asarray(q, dtype=float))[None]
         dev = sp.path.deviation(pose, seg.position_tolerance, seg.orientation_tolerance)
         return float(dev.s[0])
+    if sp.joint_path is not None:  # a planned PTP: its nearest sample
+        return float(sp.s[int(np.argmin(np.linalg.norm(sp.q - q, axis=1)))])
     d = sp.q[-1] - sp.q[0]
     dd = float(d @ d)
     return 0.0 if dd == 0.0 else float(np.clip((q - sp.q[0]) @ d / dd, 0.0, 1.0))

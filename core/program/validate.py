@@ -20,8 +20,9 @@ from core.errors import InputError
 from core.joint.profiles import PROFILES
 from core.path.line import pose_error
 from core.program.geometry.paths import cartesian_path
+from core.program.ptp_planned import PLANNERS
 from core.program.segments import MAX_SEGMENTS, ProgramTask, ptp_profile
-from core.timing import DEFAULT_LAW, TIMING_LAWS
+from core.timing import DEFAULT_LAW, JOINT_PATH_LAWS, TIMING_LAWS, program_law, speed_profile_law
 
 ZERO_LENGTH = 1e-9
 """A segment moving the tool less than this [m] and [rad] (PTP: joints, [rad]) is skipped."""
@@ -51,6 +52,10 @@ def layout(task: ProgramTask) -> Layout:
     robot, segs = task.robot, task.segments
     if not 1 <= len(segs) <= MAX_SEGMENTS:
         raise InputError(f"give 1 to {MAX_SEGMENTS} segments", field=("segments",))
+    if not program_law(task.timing):
+        raise InputError(
+            f"timing must be one of {', '.join(sorted(JOINT_PATH_LAWS))}", field=("timing",)
+        )
     if segs[-1].blend_radius > 0.0:
         raise InputError(
             "the last segment cannot blend (there is nothing to blend into)",
@@ -104,11 +109,12 @@ def check_segment(task: ProgramTask, i: int) -> None:
     for name in ("velocity_scale", "acceleration_scale"):
         if not 0.0 < getattr(seg, name) <= 1.0:
             raise InputError(f"{name} must be in (0, 1]", field=("segments", i, name))
-    if seg.speed_profile not in TIMING_LAWS or (
+    if not speed_profile_law(seg.speed_profile) or (
         seg.speed_profile != DEFAULT_LAW and not seg.cartesian
     ):
+        names = ", ".join(k for k in TIMING_LAWS if speed_profile_law(k))
         raise InputError(
-            f"speed_profile must be one of {', '.join(TIMING_LAWS)} (LIN/CIRC segments)",
+            f"speed_profile must be one of {names} (LIN/CIRC segments)",
             field=("segments", i, "speed_profile"),
         )
     tool = ("max_linear_jerk", "max_angular_jerk", "max_linear_acceleration",
@@ -117,12 +123,23 @@ def check_segment(task: ProgramTask, i: int) -> None:
         value = getattr(seg, name)
         if value is not None and not (np.isfinite(value) and value > 0.0):
             raise InputError(f"{name} must be > 0", field=("segments", i, name))
+    if seg.planner is not None and (seg.type != "ptp" or seg.planner not in PLANNERS):
+        raise InputError(
+            f"planner must be one of {', '.join(PLANNERS)} (PTP segments only)",
+            field=("segments", i, "planner"),
+        )
+    if seg.planner is not None and seg.profile is not None:
+        raise InputError(
+            "a PTP with a planner follows its planned path under the program's timing: give no "
+            "profile",
+            field=("segments", i, "profile"),
+        )
     if seg.profile is None:
         return
     if seg.type != "ptp" or not ptp_profile(seg.profile):
-        names = tuple(k for k in PROFILES if ptp_profile(k))
+        kinds = tuple(k for k in PROFILES if ptp_profile(k))
         raise InputError(
-            f"profile must be one of {', '.join(names)} (PTP segments only)",
+            f"profile must be one of {', '.join(kinds)} (PTP segments only)",
             field=("segments", i, "profile"),
         )
     if seg.profile == "jerk_limited" and robot.jerk_limits is None:

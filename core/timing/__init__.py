@@ -15,7 +15,13 @@ rest-to-rest s(t) (``core.timing.path_profile.PathLaw``):
 (``core.timing.speed_limited``); on a joint path, that trapezoid smoothed to C4 within the joint and
 tool limits (``core.timing.path_trapezoid``). ``s_curve``: continuous s'', |s'''| bounded by the
 tool jerk limits (``max_linear_jerk`` [m/s^3], ``max_angular_jerk`` [rad/s^3];
-``core.timing.s_curve``, on a joint path ``core.timing.path_s_curve``). Adding a law is one module
+``core.timing.s_curve``, on a joint path ``core.timing.path_s_curve``).
+
+Two laws time joint paths only (``JOINT_PATH_LAWS``: a motion program's ``timing``; a Cartesian
+``speed_profile`` takes the other keys): ``time_optimal`` (``core.timing.optimal_law``: TOPP-RA's
+reachability analysis, every joint, tool and effort limit kept at every instant; a program's
+default, ``PROGRAM_DEFAULT``) and ``jerk_limited`` (the smoothed trapezoid of ``trapezoidal`` on a
+joint path: acceleration continuous, the program timing of round 2). Adding a law is one module
 plus one line here.
 """
 
@@ -26,8 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.budget import NO_DEADLINE, Deadline
 from core.errors import InputError
 from core.timing.joint_path import JointPath
+from core.timing.optimal_law import optimal
 from core.timing.path_limits import PathLimits
 from core.timing.path_profile import PathLaw
 from core.timing.path_s_curve import shaped_s_curve
@@ -40,7 +48,16 @@ from core.timing.speed_limited import (
     speed_limited,
 )
 
-__all__ = ["DEFAULT_LAW", "TIMING_LAWS", "EndScaled", "PathLaw", "TimingLaw", "TimingSpec"]
+__all__ = [
+    "DEFAULT_LAW",
+    "JOINT_PATH_LAWS",
+    "PROGRAM_DEFAULT",
+    "TIMING_LAWS",
+    "EndScaled",
+    "PathLaw",
+    "TimingLaw",
+    "TimingSpec",
+]
 
 
 @dataclass(frozen=True)
@@ -63,6 +80,8 @@ class TimingSpec:
         max_angular_acceleration: Tool angular acceleration limit [rad/s^2] (None: 2 rad/s^2).
         path: A geometric joint path to time (a program's stretch between stops), or None.
         limits: The limits along ``path`` (needed with it).
+        joint_names: Names of the path's joints (errors name them), or () for j1..jn.
+        deadline: Wall-time budget of the timing.
     """
 
     length: float = 0.0
@@ -80,6 +99,8 @@ class TimingSpec:
     max_angular_acceleration: float | None = None
     path: JointPath | None = None
     limits: PathLimits | None = None
+    joint_names: tuple[str, ...] = ()
+    deadline: Deadline = NO_DEADLINE
 
     def accelerations(self) -> tuple[float, float]:
         """Tool acceleration limits [m/s^2], [rad/s^2] (the defaults where not given)."""
@@ -179,10 +200,49 @@ def s_curve(spec: TimingSpec) -> PathLaw:
     return profile if end == 1.0 else EndScaled(profile, end)
 
 
+def _joint_path_only(name: str, spec: TimingSpec) -> tuple[JointPath, PathLimits]:
+    if spec.path is None:
+        raise InputError(
+            f"{name} times a joint path (a program's timing), not a Cartesian speed_profile",
+            field=("speed_profile",),
+        )
+    return spec.joint_path()
+
+
+def time_optimal(spec: TimingSpec) -> PathLaw:
+    """The time-optimal law of a joint path (``core.timing.optimal_law``) under
+    ``spec.limits.rows``."""
+    path, limits = _joint_path_only("time_optimal", spec)
+    return optimal(path, limits.rows, spec.joint_names, spec.deadline)
+
+
+def jerk_limited(spec: TimingSpec) -> PathLaw:
+    """A joint path's smoothed trapezoid (C4: continuous acceleration; ``trapezoidal``'s)."""
+    return smooth_trapezoid(*_joint_path_only("jerk_limited", spec))
+
+
 TIMING_LAWS: dict[str, TimingLaw] = {
     "trapezoidal": trapezoidal,
     "s_curve": s_curve,
+    "time_optimal": time_optimal,
+    "jerk_limited": jerk_limited,
 }
 DEFAULT_LAW = "trapezoidal"
 """The law of a request that names none (a Cartesian request's and a segment's ``speed_profile``
-default, and the default of a program's stretches between stops)."""
+default; on a LIN/CIRC segment it means "the program's timing")."""
+JOINT_PATH_LAWS = frozenset({"time_optimal", "jerk_limited"})
+"""Laws that time a joint path only: a program's ``timing`` takes them, a ``speed_profile`` the
+other keys."""
+PROGRAM_DEFAULT = "time_optimal"
+"""The timing of a program's stretches between stops when the program names none."""
+
+
+def speed_profile_law(name: str) -> bool:
+    """Whether ``name`` may be a ``speed_profile``: a key of ``TIMING_LAWS`` that times a
+    Cartesian path (not in ``JOINT_PATH_LAWS``)."""
+    return name in TIMING_LAWS and name not in JOINT_PATH_LAWS
+
+
+def program_law(name: str) -> bool:
+    """Whether ``name`` may be a program's ``timing`` (a key in ``JOINT_PATH_LAWS``)."""
+    return name in TIMING_LAWS and name in JOINT_PATH_LAWS

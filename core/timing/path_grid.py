@@ -37,16 +37,19 @@ JUMP = 1e-6
 
 
 class PathSamples(NamedTuple):
-    """q, dq/ds, d2q/ds2 at K path parameters, each ``(K, dof)``."""
+    """q, dq/ds, d2q/ds2 at K path parameters, each ``(K, dof)``, and the path parameters ``s``
+    ``(K,)`` (``PathLimits.rows(*samples)`` gets them: limits may vary along the path)."""
 
     q: np.ndarray
     dq: np.ndarray
     ddq: np.ndarray
+    s: np.ndarray
 
 
 def sample_path(path: JointPath, s: np.ndarray) -> PathSamples:
     """q, dq/ds, d2q/ds2 of ``path`` at ``s`` ``(K,)``."""
-    return PathSamples(path(s, 0), path(s, 1), path(s, 2))
+    s = np.asarray(s, dtype=float)
+    return PathSamples(path(s, 0), path(s, 1), path(s, 2), s)
 
 
 class Grid(NamedTuple):

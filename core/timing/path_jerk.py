@@ -179,7 +179,7 @@ def _factor(
     |A s''/k^2 + B s'^2/k^2 + C| <= h needs k^2 >= moving / (+-h - C), a jerk k^3 >= |q'''| / J."""
     s = law(t)
     sd, sdd = law(t, 1), law(t, 2)
-    rows = limits.rows(path(s), path(s, 1), path(s, 2))
+    rows = limits.rows(path(s), path(s, 1), path(s, 2), s)
     h = limits.bounds
     moving = rows.A * sdd[:, None] + rows.B * (sd * sd)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):

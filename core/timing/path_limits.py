@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.timing.joint_path import JointPath
+from core.timing.path_constraints import PathLimits as Rows
 
 ACCELERATION_SHARE = 0.5
 """Share of each joint's acceleration limit given to the curvature term |q_ss| s'^2."""
@@ -45,6 +46,9 @@ class PathLimits:
         tool_positions: ``(K, 3)`` the tool's position [m] at each grid point (the jerk-limited
             law bounds the tool's linear jerk along it), or None.
         tool_jerk: Tool jerk limits [m/s^3, rad/s^3] of a jerk-limited law, or None.
+        rows: The same limits at any s, as rows affine in (s'', s'^2)
+            (``core.timing.path_constraints.PathLimits``: what the time-optimal law keeps, effort
+            included), or None.
     """
 
     s: np.ndarray
@@ -55,6 +59,7 @@ class PathLimits:
     tool_acceleration: np.ndarray
     tool_positions: np.ndarray | None = None
     tool_jerk: tuple[float, float] | None = None
+    rows: Rows | None = None
 
 
 @dataclass(frozen=True)

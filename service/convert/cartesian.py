@@ -24,6 +24,7 @@ from core.cartesian.task import CartesianResult, CartesianTask, PathSpec
 from core.errors import InputError, PlanningError, TooLarge
 from core.kinematics import Kinematics
 from core.trajectory import MAX_POINTS
+from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.environment import clearance_diagnostics, collision_check, inline_urdf
 from service.convert.robot import robot_positions
 from service.encoding import base_diagnostics, check_finite, ros_durations, trajectory_body
@@ -34,8 +35,8 @@ _SAME_NAMED = tuple(
     sorted(
         {f.name for f in dataclasses.fields(CartesianTask)}
         & set(CartesianTaskSpec.model_fields)
-        - {"robot", "path"}  # the request names the robot (the task holds the resolved model);
-        # the path shape becomes a ``PathSpec``
+        - {"robot", "path", "gravity"}  # the request names the robot (the task holds the
+        # resolved model); the path shape becomes a ``PathSpec``; gravity an array
     )
 )
 """Request fields passed to ``CartesianTask`` as they are (same name, same units): the timing,
@@ -101,6 +102,9 @@ def task_from_spec(
         deadline=deadline,
         clearance=None if spec.environment is None else check,
         collision_check=check,
+        effort=effort_inputs(spec, robot, robot.dof),  # type: ignore[arg-type]
+        dynamics=dynamics_of(robot),  # type: ignore[arg-type]
+        gravity=gravity_of(spec, robot),  # type: ignore[arg-type]
         **same_named,
     )
     task.line()  # bad circle geometry: 422 validation at path.* before any method runs

@@ -19,8 +19,9 @@ from core.errors import InputError
 from core.limits import JointLimits, check_positions
 from core.motion.goals import Goals, pose_goals
 from core.motion.plan import MotionResult, MotionTask
-from core.timing.path_constraints import PathLimits
+from core.timing.path_constraints import Effort, PathLimits
 from robots.model import Robot
+from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.environment import clearance_diagnostics
 from service.convert.joint import joint_limits
 from service.convert.robot import robot_and_names
@@ -71,6 +72,7 @@ def motion_task(
         )
     planning = budget_s if body.max_planning_time is None else float(body.max_planning_time)
     planning = max(min(planning, deadline.remaining() - SEARCH_RESERVE), 0.0)
+    effort = effort_inputs(body, robot, robot.dof)
     return MotionTask(
         q_start=q_start,
         goals=goals,
@@ -83,16 +85,20 @@ def motion_task(
         max_points=max_points,
         joint_names=names,
         deadline=deadline,
-        path_limits=path_limits(limits),
+        path_limits=path_limits(limits, effort),
+        effort=effort,
+        dynamics=dynamics_of(robot),
+        gravity=gravity_of(body, robot),
     )
 
 
-def path_limits(limits: JointLimits) -> PathLimits | None:
-    """What ``time_optimal`` keeps along the path: the joint velocity and acceleration limits
-    (None when the robot lacks one: core answers which)."""
+def path_limits(limits: JointLimits, effort: Effort | None = None) -> PathLimits | None:
+    """What ``time_optimal`` keeps along the path: the joint velocity and acceleration limits and
+    the request's ``effort`` (None when the robot lacks a velocity or acceleration limit: core
+    answers which)."""
     if limits.velocity is None or limits.acceleration is None:
         return None
-    return PathLimits(limits.velocity, limits.acceleration)
+    return PathLimits(limits.velocity, limits.acceleration, effort=effort)
 
 
 def response(
@@ -117,6 +123,8 @@ def response(
         goal_configuration=result.configuration,
         **clearance_diagnostics(result.clearance, warnings),
     )
+    if result.peak_effort is not None:
+        diag["peak_effort"] = result.peak_effort
     waypoints = np.asarray(result.waypoints, dtype=float).tolist()
     return json_response(
         trajectory_body(traj, diag, time_format, encoded=True, waypoints=waypoints)

@@ -26,14 +26,14 @@ def gravity_of(body: Any, robot: Robot | None) -> np.ndarray:
     """The request's ``gravity`` [m/s^2] ``(3,)`` (default [0, 0, -9.81]); 422 at ``gravity``
     when it is given for a request without a robot with dynamics."""
     given = getattr(body, "gravity", None)
-    if given is not None and (robot is None or robot.dynamics is None):
+    if given is not None and dynamics_of(robot) is None:
         raise InputError("gravity applies to a robot with dynamics", field=("gravity",))
     return np.asarray(DEFAULT_GRAVITY if given is None else given, dtype=float)
 
 
 def dynamics_of(robot: Robot | None) -> Dynamics | None:
     """The robot's dynamics, or None (no robot, or no inertial parameters)."""
-    return None if robot is None else robot.dynamics
+    return None if robot is None else getattr(robot, "dynamics", None)
 
 
 def effort_inputs(body: Any, robot: Robot | None, dof: int) -> Effort | None:
@@ -44,10 +44,11 @@ def effort_inputs(body: Any, robot: Robot | None, dof: int) -> Effort | None:
     gravity = gravity_of(body, robot)
     if effort is None:
         return None
-    if robot is None or robot.dynamics is None:
+    dynamics = dynamics_of(robot)
+    if robot is None or dynamics is None:
         raise InputError(
             "limits.effort needs a robot with dynamics (inertial parameters); "
             + ("this request names none" if robot is None else f"{robot.name} has none"),
             field=EFFORT_FIELD,
         )
-    return Effort(robot.dynamics, joint_vector(effort, dof, EFFORT_FIELD), gravity)
+    return Effort(dynamics, joint_vector(effort, dof, EFFORT_FIELD), gravity)

@@ -21,8 +21,11 @@ from core.limits import entry_positions
 from core.program.plan import ProgramResult, plan_program
 from core.program.segments import ProgramTask, Segment
 from robots import registry
+from robots.model import Robot
+from robots.validity import GroupedClearance
 from service import deps
 from service.convert.cartesian import failure_body
+from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.environment import (
     clearance_diagnostics,
     collision_check,
@@ -50,14 +53,23 @@ def _joints(robot: Kinematics, values: list[float], loc: tuple[str | int, ...]) 
     return entry_positions(values, robot.position_limits, robot.joint_names, loc, extra=segment)
 
 
+def planner_clearance(body: ProgramRequest, check: Clearance | None) -> GroupedClearance | None:
+    """The collision-free planner's view of the request's collision object, when the program has
+    an environment and a PTP segment asks for the planner."""
+    asks = any(isinstance(s, PtpSegment) and s.planner is not None for s in body.segments)
+    if not asks or body.environment is None or check is None:
+        return None
+    return GroupedClearance(check)  # type: ignore[arg-type]
+
+
 def task_from_request(
     body: ProgramRequest,
-    robot: Kinematics,
+    robot: Robot,
     deadline: Deadline,
     check: Clearance | None = None,
 ) -> ProgramTask:
     """The core task of a request: joint arrays checked against the robot; ``check``: the
-    request's collision object."""
+    request's collision object; effort limits and gravity (``service.convert.dynamics``)."""
     segments = []
     for i, s in enumerate(body.segments):
         loc = ("segments", i, "goal", "positions")
@@ -72,7 +84,13 @@ def task_from_request(
         }
         if isinstance(s, PtpSegment):
             segments.append(
-                Segment("ptp", configuration=s.goal.configuration, profile=s.profile, **common)
+                Segment(
+                    "ptp",
+                    configuration=s.goal.configuration,
+                    profile=s.profile,
+                    planner=s.planner,
+                    **common,
+                )
             )
             continue
         extra: dict[str, Any] = {}
@@ -89,6 +107,8 @@ def task_from_request(
                 speed_profile=s.speed_profile,
                 max_linear_jerk=s.max_linear_jerk,
                 max_angular_jerk=s.max_angular_jerk,
+                max_linear_acceleration=s.max_linear_acceleration,
+                max_angular_acceleration=s.max_angular_acceleration,
                 position_tolerance=s.tolerance.position,
                 orientation_tolerance=s.tolerance.orientation,
                 method=s.method,
@@ -105,6 +125,12 @@ def task_from_request(
         allow_partial=body.allow_partial,
         deadline=deadline,
         collision_check=check,
+        timing=body.timing,
+        seed=body.seed,
+        planner_clearance=planner_clearance(body, check),
+        effort=effort_inputs(body, robot, robot.dof),
+        dynamics=dynamics_of(robot),
+        gravity=gravity_of(body, robot),
     )
 
 
@@ -126,7 +152,7 @@ def result_body(
     diag = base_diagnostics(traj, "program", compute_time_ms)
     diag["warnings"] = [*result.warnings, *unchecked]
     diag["fraction"] = result.fraction
-    diag.update({k: _finite(v) for k, v in result.diagnostics.items()})
+    diag.update({k: _finite(v) for k, v in result.diagnostics.items()})  # peak_effort too
     diag.update(clearance_diagnostics(result.clearance, unchecked))
     if result.failure is not None:
         err: PlanningError = result.failure

@@ -14,10 +14,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 
 from core.cartesian.methods import METHODS
 from core.path import PATHS
-from core.timing import TIMING_LAWS
+from core.timing import TIMING_LAWS, speed_profile_law
 from service.schemas.common import (
+    GRAVITY_FIELD,
     MAX_DURATION,
     TOOL_FIELD,
+    EffortLimits,
+    Gravity,
     JointPositions,
     Pose,
     Position,
@@ -49,8 +52,9 @@ MAX_ANGULAR_ACCELERATION = 1e4
 
 PathType = Annotated[str, RegistryKey(PATHS, "path.type")]
 """The path shapes: the keys of ``core.path.PATHS`` (``line``, ``circ``)."""
-SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile")]
-"""The timing laws: the keys of ``core.timing.TIMING_LAWS`` (``trapezoidal``, ``s_curve``)."""
+SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile", speed_profile_law)]
+"""The timing laws of a Cartesian path: the keys of ``core.timing.TIMING_LAWS`` outside
+``JOINT_PATH_LAWS`` (``trapezoidal``, ``s_curve``)."""
 Point3 = Annotated[
     list[Position],
     Field(min_length=3, max_length=3, description="A point [x, y, z] in [m] in the base frame."),
@@ -246,6 +250,13 @@ class CartesianTaskSpec(StrictModel):
         le=MAX_ANGULAR_JERK,
         description="s_curve: tool angular jerk limit [rad/s^3], 1e-6 to 1e5 (default 20).",
     )
+    limits: EffortLimits | None = Field(
+        default=None,
+        description="Effort limits [N m or N] (robots with dynamics): the timing the service "
+        "chooses (no duration) is slowed uniformly until the inverse-dynamics torque along the "
+        "returned motion keeps them.",
+    )
+    gravity: Gravity | None = GRAVITY_FIELD
     solver: str = Field(
         default="osqp",
         min_length=1,

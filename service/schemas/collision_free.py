@@ -13,7 +13,9 @@ from pydantic import Field, model_validator
 
 from core.motion.timing import TIMINGS
 from service.schemas.common import (
+    GRAVITY_FIELD,
     TOOL_FIELD,
+    Gravity,
     JointPositions,
     Pose,
     RobotRef,
@@ -80,8 +82,10 @@ class CollisionFreeRequest(Sampling):
     limits: JointLimitsIn | None = Field(
         default=None,
         description="Per-joint velocity, acceleration (and, for jerk_limited, jerk) limits "
-        "replacing the robot's, list by list.",
+        "replacing the robot's, list by list; effort [N m or N] (robots with dynamics): the timed "
+        "motion is slowed uniformly until the inverse-dynamics torque keeps it.",
     )
+    gravity: Gravity | None = GRAVITY_FIELD
     timing: Timing = Field(
         default="time_optimal",
         description="time_optimal: the fastest timing of the blended path under the velocity and "

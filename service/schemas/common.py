@@ -136,6 +136,14 @@ class Limits(StrictModel):
     )
 
 
+class EffortLimits(StrictModel):
+    """Effort limits of a request whose path the service times (Cartesian requests, programs)."""
+
+    effort: list[PositiveEffort] | None = Field(
+        default=None, min_length=1, max_length=MAX_JOINTS, description=EFFORT_DESCRIPTION
+    )
+
+
 def not_with(value: Any, info: ValidationInfo, others: tuple[str, ...], message: str) -> Any:
     """A field validator's body for two fields that exclude each other: ``value`` (given) is
     rejected with ``message`` when any of ``others`` (declared before it) is given too, so the

@@ -14,7 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 from core.cartesian.methods import METHODS
 from core.joint.profiles import PROFILES
 from core.program.segments import MAX_SEGMENTS, ptp_profile
-from core.timing import TIMING_LAWS
+from core.timing import PROGRAM_DEFAULT, TIMING_LAWS, program_law, speed_profile_law
 from service.schemas.cartesian import (
     MAX_ANGULAR_ACCELERATION,
     MAX_ANGULAR_SPEED,
@@ -23,8 +23,12 @@ from service.schemas.cartesian import (
     CartesianGoal,
     Tolerance,
 )
+from service.schemas.collision_free import MAX_SEED
 from service.schemas.common import (
+    GRAVITY_FIELD,
     TOOL_FIELD,
+    EffortLimits,
+    Gravity,
     JointPositions,
     Pose,
     Position,
@@ -55,8 +59,12 @@ PtpProfile = Annotated[str, RegistryKey(PROFILES, "profile", ptp_profile)]
 held to acceleration limits (not ``linear``, whose velocity steps)."""
 SegmentMethod = Annotated[str, RegistryKey(METHODS, "method")]
 """A LIN/CIRC segment's method: any key of ``core.cartesian.methods.METHODS``."""
-SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile")]
-"""A LIN/CIRC segment's timing law: a key of ``core.timing.TIMING_LAWS``."""
+SpeedProfile = Annotated[str, RegistryKey(TIMING_LAWS, "speed_profile", speed_profile_law)]
+"""A LIN/CIRC segment's timing law: a key of ``core.timing.TIMING_LAWS`` that times a Cartesian
+path (``trapezoidal``: the program's timing; ``s_curve``)."""
+ProgramTiming = Annotated[str, RegistryKey(TIMING_LAWS, "timing", program_law)]
+"""A program's timing: a key of ``core.timing.TIMING_LAWS`` in ``JOINT_PATH_LAWS``
+(``time_optimal``, ``jerk_limited``)."""
 BlendRadius = Annotated[
     float,
     Field(
@@ -132,6 +140,17 @@ class PtpSegment(_Common):
         "warning.",
     )
 
+    planner: Literal["collision_free"] | None = Field(
+        default=None,
+        description="collision_free: the PTP's joint motion is planned around the environment's "
+        "obstacles as POST /v1/trajectories/collision_free plans it (the direct segment when it "
+        "is clear, else a certified RRT-Connect path, shortened and smoothed; a goal pose tries "
+        "its clear IK solutions, nearest first; deterministic per the program's `seed`) and "
+        "blends with its neighbours like any PTP; the program's continuous check covers the "
+        "whole motion. Needs an `environment` (without one the PTP stays straight); not with "
+        "`profile`. No path within the time budget: 422 no_path_found.",
+    )
+
 
 class _CartesianSegment(_Common):
     goal: CartesianGoal = Field(
@@ -160,9 +179,8 @@ class _CartesianSegment(_Common):
     )
     speed_profile: SpeedProfile = Field(
         default="trapezoidal",
-        description="`trapezoidal` (default): the program's time-optimal timing under the joint "
-        "velocity/acceleration caps and the tool speed limits (path acceleration continuous, "
-        "jerk not limited). `s_curve`: the whole stretch between stops that holds this segment "
+        description="`trapezoidal` (default): the program's `timing` (time_optimal or "
+        "jerk_limited). `s_curve`: the whole stretch between stops that holds this segment "
         "is timed with continuous path acceleration and bounded path jerk: an S-curve (Ruckig) "
         "through a smooth speed shape that follows the joint and tool speed caps along the "
         "path (slower in sharp blends only), with the tool's linear jerk within "
@@ -264,6 +282,30 @@ class ProgramRequest(StrictModel):
         description="On a failing segment: 200 with the program up to it (diagnostics.fraction "
         "< 1, diagnostics.failure with segment) instead of 422.",
     )
+    timing: ProgramTiming = Field(
+        default=PROGRAM_DEFAULT,
+        description="How each stretch between stops is timed (segments[].diagnostics.timing says "
+        "which): `time_optimal` (default): the shortest time along the blended joint path that "
+        "keeps every joint velocity, acceleration (times each segment's scales) and effort limit "
+        "and each LIN/CIRC's tool speed and acceleration limits at every instant (TOPP-RA; the "
+        "acceleration steps where the limits switch, each step between two returned points 1e-8 s "
+        "apart). `jerk_limited`: round 2's timing, acceleration continuous (C2) everywhere, "
+        "slower. A LIN/CIRC with speed_profile s_curve times its stretch as an S-curve under "
+        "either.",
+    )
+    seed: int = Field(
+        default=0,
+        ge=0,
+        le=MAX_SEED,
+        description="Seed of the collision-free planner of PTP segments with planner "
+        "collision_free (0 to 2^31 - 1): the same program and seed give the same answer.",
+    )
+    limits: EffortLimits | None = Field(
+        default=None,
+        description="Effort limits [N m or N] (robots with dynamics): time_optimal keeps them as "
+        "constraints; other timings are slowed uniformly until the torque keeps them.",
+    )
+    gravity: Gravity | None = GRAVITY_FIELD
 
     @field_validator("samples")
     @classmethod

@@ -152,16 +152,19 @@ def test_registries_reach_the_schema() -> None:
     from core.cartesian.methods import METHODS
     from core.joint.profiles import PROFILES
     from core.path import PATHS
-    from core.timing import TIMING_LAWS
+    from core.timing import JOINT_PATH_LAWS, TIMING_LAWS
     from service.schemas.cartesian import Method, PathType, SpeedProfile
-    from service.schemas.program import PtpProfile, SegmentMethod
+    from service.schemas.program import ProgramTiming, PtpProfile, SegmentMethod
     from service.schemas.program import SpeedProfile as SegmentSpeedProfile
     from service.schemas.registry import names_of
     from service.schemas.trajectories import Profile
 
     assert names_of(Method) == names_of(SegmentMethod) == list(METHODS)
     assert names_of(PathType) == list(PATHS)
-    assert names_of(SpeedProfile) == names_of(SegmentSpeedProfile) == list(TIMING_LAWS)
+    # a speed_profile times a Cartesian path; a program's timing its joint path (round 3)
+    cartesian = [k for k in TIMING_LAWS if k not in JOINT_PATH_LAWS]
+    assert names_of(SpeedProfile) == names_of(SegmentSpeedProfile) == cartesian
+    assert names_of(ProgramTiming) == [k for k in TIMING_LAWS if k in JOINT_PATH_LAWS]
     assert names_of(Profile) == list(PROFILES)
     assert set(names_of(PtpProfile)) == set(PROFILES) - {"linear"}
 

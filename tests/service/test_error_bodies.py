@@ -245,7 +245,7 @@ def test_the_sweep_checks_the_route_models() -> None:
     assert model_of("/v1/robots/ur5/fk") is not None and model_of("/v1/compare") is not None
     with pytest.raises(AssertionError, match="not a field"):
         bad = {"type": "x/validation", "status": 422, "code": "validation", "detail": "d",
-               "errors": [{"loc": ["body", "limits"], "msg": "m"}]}  # fmt: skip
+               "errors": [{"loc": ["body", "speed"], "msg": "m"}]}  # fmt: skip
         documented_problem(
             422, "application/problem+json", bad, CODES, model_of("/v1/trajectories/program")
         )

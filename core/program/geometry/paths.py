@@ -19,6 +19,7 @@ from core.kinematics import Kinematics
 from core.path import Path, build_path
 from core.program.geometry.smooth import smooth_spline
 from core.program.segments import Segment
+from core.timing.joint_path import JointPath
 
 PATH_KINDS = {"lin": "line", "circ": "circ"}
 """The ``core.path.PATHS`` shape of each Cartesian segment type."""
@@ -104,6 +105,9 @@ class SegmentPath:
         knot_count: IK knots of a bounded-deviation segment, None for the others.
         planned: The segment method's own joint samples ``(s, q)`` (LIN/CIRC), which ``joints``
             interpolates; None: ``(s, q)`` themselves.
+        joint_path: A PTP's joint path found by a planner (``core.program.ptp_planned``: s in
+            [0, 1] its share of the path's length), None: the straight joint segment.
+        planner: How the planner found it (``PlannerReport.as_dict`` and ``path_length``), None.
     """
 
     index: int
@@ -118,6 +122,8 @@ class SegmentPath:
     min_singular_value: float = float("nan")
     knot_count: int | None = None
     planned: tuple[np.ndarray, np.ndarray] | None = None
+    joint_path: JointPath | None = None
+    planner: dict[str, object] | None = None
     _spline: CubicSpline | None = field(default=None, repr=False)
 
     @property
@@ -128,6 +134,8 @@ class SegmentPath:
         """Joint positions (N, dof) at ``s`` (N,): the joint line (PTP) or a C2 spline through the
         planned samples (LIN/CIRC; exact at them)."""
         s = np.atleast_1d(np.asarray(s, dtype=float))
+        if self.joint_path is not None:
+            return np.asarray(self.joint_path(s * self.joint_path.length), dtype=float)
         if self.path is None:
             return self.q[0] + s[:, None] * (self.q[-1] - self.q[0])
         if self._spline is None:

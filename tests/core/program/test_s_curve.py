@@ -81,7 +81,7 @@ def test_s_curve_still_holds_the_joint_limits_and_the_path(both):
     # (q'(t+h) - q'(t-h)) / 2h differs from q''(t) by at most h/2 times the peak jerk.
     assert np.all(np.abs(fd_a - qdd[reg + 1]) <= 0.5 * DT * tr.peak_jerk * (1 + 1e-6) + 1e-9)
     assert [sr.diagnostics["timing"] for sr in r.segments] == ["s_curve"] * 2
-    assert [sr.diagnostics["timing"] for sr in both["trapezoidal"].segments] == ["trapezoidal"] * 2
+    assert [sr.diagnostics["timing"] for sr in both["trapezoidal"].segments] == ["time_optimal"] * 2
     assert np.all(np.abs(tr.velocities) <= UR5.velocity_limits * (1 + 1e-9))
     assert np.all(np.abs(tr.accelerations) <= UR5.acceleration_limits * (1 + 1e-9))
     assert r.diagnostics["max_position_deviation"] < 1e-6
