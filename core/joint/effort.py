@@ -263,7 +263,12 @@ def held_motion(
         trajectory = slowed(trajectory, k) if k > 1.0 else trajectory
     if dynamics is None:
         return trajectory, None
-    return trajectory, peak_effort(dynamics, HermiteMotion(trajectory), trajectory.times, gravity)
+    between = peak_effort(dynamics, HermiteMotion(trajectory), trajectory.times, gravity)
+    g = np.asarray(DEFAULT_GRAVITY if gravity is None else gravity, dtype=float)
+    at_points = dynamics.inverse_dynamics(  # the returned points' own values count too
+        trajectory.positions, trajectory.velocities, trajectory.accelerations, g
+    )
+    return trajectory, np.maximum(between, np.abs(at_points).max(axis=0))
 
 
 def effort_stretch(motion: Sampled, effort: Effort, times: np.ndarray) -> float:
