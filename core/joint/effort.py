@@ -261,9 +261,9 @@ def held_motion(
 
         k = held_trajectory(trajectory, effort, names, deadline, where)
         trajectory = slowed(trajectory, k) if k > 1.0 else trajectory
-    if dynamics is None:
-        return trajectory, None
     between = peak_effort(dynamics, HermiteMotion(trajectory), trajectory.times, gravity)
+    if dynamics is None or between is None:
+        return trajectory, None
     g = np.asarray(DEFAULT_GRAVITY if gravity is None else gravity, dtype=float)
     at_points = dynamics.inverse_dynamics(  # the returned points' own values count too
         trajectory.positions, trajectory.velocities, trajectory.accelerations, g
