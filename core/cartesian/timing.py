@@ -47,7 +47,8 @@ from core.path import Path
 from core.timing import TIMING_LAWS, PathLaw, TimingLaw, TimingSpec
 from core.timing.caps import joint_speed_cap
 from core.timing.quintic import QUINTIC_PEAK_VELOCITY
-from core.trajectory import MAX_DURATION, Trajectory, sample_times
+from core.timing.switch_times import jumps_at, with_switches
+from core.trajectory import MAX_DURATION, MAX_POINTS, Trajectory
 
 MIN_SPEED_FRACTION = 1e-3
 """Slowest the joint limits may make the tool, as a share of the requested path speed; below it the
@@ -308,15 +309,20 @@ def sample_path(task: CartesianTask, timing: PathTiming) -> tuple[np.ndarray, np
     """Times [s] and path parameters of the returned points, both ``(N,)``.
 
     ``samples`` N: N points equally spaced in s (the notes' N points on the line), timed by s(t);
-    otherwise one point every ``sample_period`` [s] (default 0.01 s) and the last at the end.
+    otherwise one point every ``sample_period`` [s] (default 0.01 s) and the last at the end, plus
+    every time where s'' jumps held by a pair of points 1 us apart and every other switch of s(t)
+    (``core.timing.switch_times.with_switches``), so that the trapezoid rule between consecutive
+    points integrates the returned accelerations to the returned velocities (issue 26.9).
     """
     end = timing.end
     if task.samples is not None:
         s = np.linspace(0.0, end, int(task.samples))
         times = np.asarray(timing.profile.time_at(s), dtype=float)
     else:
-        times = sample_times(timing.duration, task.sample_period)
-        s = np.clip(np.asarray(timing.profile(times), dtype=float), 0.0, end)
+        profile = timing.profile
+        switches = np.concatenate([[0.0], profile.switch_times(), [timing.duration]])
+        times = with_switches(jumps_at(profile, switches), task.sample_period, None, MAX_POINTS)
+        s = np.clip(np.asarray(profile(times), dtype=float), 0.0, end)
     times[0], times[-1] = 0.0, timing.duration
     s[0], s[-1] = 0.0, end
     if np.any(np.diff(times) <= 0.0):

@@ -37,7 +37,7 @@ from core.cartesian.ik_on_path import (
     residual,
     solve_ik,
 )
-from core.cartesian.path_rates import PathRates, path_rates
+from core.cartesian.path_rates import PathRates, path_rates, predict
 from core.cartesian.task import CartesianTask
 from core.cartesian.timing import MIN_SPEED_FRACTION, nominal_path_speed
 from core.errors import (
@@ -165,6 +165,11 @@ class Walker:
         sigma = path_rates(self.robot, self.line, q[None], False, s=np.zeros(1)).sigma[0]
         return bool(sigma >= SINGULAR_VALUE_THRESHOLD)
 
+    def predict(self, seed: Seed, s: float) -> np.ndarray:
+        """Where the rates lead from ``seed`` to ``s`` (``path_rates.predict``): IK's start."""
+        at = np.array([s - seed.h])
+        return predict(self.robot, self.line, seed.q, seed.dq, at, np.array([seed.h]))[0]
+
     def on_branch(self, q: np.ndarray, seed: Seed, s: float | None = None) -> bool:
         """Whether ``q`` continues the branch from ``seed``: within ``STRICT_BRANCH`` of the
         Jacobian's prediction (plus its slack); or, for a step of at most 2 ``MIN_STEP``,
@@ -188,7 +193,7 @@ class Walker:
         residual = np.inf
         for seed in seeds:
             step = seed.dq * seed.h
-            pred = seed.q + step
+            pred = self.predict(seed, s)
             for start in (pred, seed.q):
                 q, ok, res = self.ik(T, start)
                 residual = min(residual, res)

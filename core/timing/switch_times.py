@@ -10,12 +10,13 @@ or the switch times themselves when the pairs would exceed ``max_points`` or whe
 is continuous there (``pairs=False``: a jerk-limited S-curve, whose acceleration is linear between
 its switch times, so the trapezoid rule is exact between consecutive points). Any other two times
 closer than ``MIN_SPACING`` are one (``jumps``: the grid times where s'' does change). Used by
-``core.joint.retime`` and ``core.motion.sample``.
+``core.joint.retime``, ``core.motion.sample`` and ``core.cartesian.timing``.
 Units: [s].
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -41,7 +42,13 @@ class PathLaw(Protocol):
 def jumps(law: PathLaw) -> np.ndarray:
     """The switch times of ``law`` where s'' jumps (more than ``JUMP``), 0 and the duration
     kept: the times ``with_switches`` must hold."""
-    t = np.asarray(law.switch_times, dtype=float)
+    return jumps_at(law, law.switch_times)
+
+
+def jumps_at(law: Callable[[np.ndarray, int], np.ndarray], switch_times: np.ndarray) -> np.ndarray:
+    """``jumps`` of an s(t) ``law`` whose switch times are ``switch_times`` ``(M,)`` (0 and the
+    duration first and last; a ``core.timing.PathLaw`` gives its inner ones by a method)."""
+    t = np.asarray(switch_times, dtype=float)
     if len(t) < 3:
         return t
     u = np.asarray(law(0.5 * (t[:-1] + t[1:]), 2), dtype=float)  # s'' on each interval

@@ -18,7 +18,7 @@ from core.cartesian.check import finish
 from core.cartesian.ik_on_path import IK_SOLVE_TOLERANCE, follows, label_note
 from core.cartesian.measure import min_singular_values
 from core.cartesian.partial import PARTIAL_ERRORS, PARTIAL_TRIES, partial_warning
-from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates
+from core.cartesian.path_rates import RATES_CHUNK, PathRates, path_rates, predict
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.cartesian.timing import sample_path, time_path, timed_trajectory
 from core.cartesian.validate import validated_line
@@ -129,7 +129,7 @@ def _batch_chunk(
     """``_batch_solve`` on the points ``todo`` (indices into ``s``), in place."""
     q0, h = walk.positions[k[todo]], (s - walk.s[k])[todo]
     step = walk.rates.dq_ds[k[todo]] * h[:, None]
-    q = q0 + step
+    q = predict(w.robot, w.line, q0, walk.rates.dq_ds[k[todo]], walk.s[k[todo]], h)
     p_goal, R_goal = poses[todo, :3, 3], poses[todo, :3, :3]
     active = np.ones(len(todo), dtype=bool)
     converged = np.zeros(len(todo), dtype=bool)
