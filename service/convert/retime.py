@@ -5,7 +5,8 @@ plan's diagnostics (``timing``, ``binding``, ``path_length``, ``peak_effort``,
 Limits as for the other joint-space routes (``service.convert.joint.joint_limits``: the request's
 lists replace the robot's, position limits from the robot); without a robot velocity and
 acceleration limits are required (core names the field); jerk limits only as the request gives them
-(core checks the path kind). Tool speed limits need a robot (422 ``validation`` at the field);
+(core checks the path kind). Tool speed limits need a robot (422 ``validation`` at the field) and
+hold at the ``tool`` frame when one is given (``with_tool``);
 effort limits a robot with dynamics (``service.convert.dynamics``).
 """
 
@@ -23,7 +24,7 @@ from core.timing.path_constraints import Effort, ToolSpeed, tool_rates
 from robots.model import Robot
 from service.convert.dynamics import dynamics_of, effort_inputs, gravity_of
 from service.convert.joint import joint_limits
-from service.convert.robot import robot_and_names
+from service.convert.robot import robot_and_names, with_tool
 from service.schemas.retime import RetimeRequest
 
 
@@ -50,6 +51,9 @@ def retime_inputs(body: RetimeRequest) -> RetimeInputs:
                 f"waypoints.{i} needs {dof} values like waypoints.0", field=("waypoints", i)
             )
     robot, names = robot_and_names(body.robot, dof, ("waypoints", 0))
+    if body.tool is not None and robot is None:
+        raise InputError("tool needs a robot", field=("tool",))
+    robot = None if robot is None else with_tool(robot, body.tool)
     tool = None
     for name in ("max_linear_speed", "max_angular_speed"):
         if getattr(body, name) is not None and robot is None:

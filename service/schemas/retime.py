@@ -13,10 +13,12 @@ from service.schemas.common import (
     GRAVITY_FIELD,
     MAX_POSITION,
     MAX_VELOCITY,
+    TOOL_FIELD,
     Gravity,
     JointPositions,
     RobotRef,
     Sampling,
+    Tool,
 )
 from service.schemas.environment import Environment
 from service.schemas.trajectories import ROBOT_DESCRIPTION, JointLimitsIn
@@ -66,7 +68,8 @@ class RetimeRequest(Sampling):
         default=None,
         gt=0.0,
         le=MAX_VELOCITY,
-        description="Tool (tip) speed limit [m/s], > 0, <= 1e4; needs robot.",
+        description="Tool speed limit [m/s] (the tool frame's origin: the tip's, or tool's), > 0, "
+        "<= 1e4; needs robot.",
     )
     max_angular_speed: float | None = Field(
         default=None,
@@ -74,6 +77,7 @@ class RetimeRequest(Sampling):
         le=MAX_VELOCITY,
         description="Tool angular speed limit [rad/s], > 0, <= 1e4; needs robot.",
     )
+    tool: Tool | None = TOOL_FIELD
 
     @field_validator("max_deviation")
     @classmethod

@@ -195,6 +195,34 @@ def test_tool_speed_limits(client: TestClient) -> None:
     assert np.linalg.norm(v[:, 3:], axis=1).max() <= 0.8 * (1 + 1e-6)
 
 
+def test_tool_speed_limits_hold_at_the_tool_offset(client: TestClient) -> None:
+    """With ``tool`` the linear speed limit holds at the tool point (by pinocchio here: the tip's
+    velocity plus omega x the offset), which moves faster than the tip on this wrist-heavy move;
+    the same limit at the tip is a shorter motion."""
+    offset = [0.0, 0.0, 0.25]
+    body = {"robot": "ur5", "waypoints": MOVES["ur5"], "max_linear_speed": 0.3,
+            "sample_period": 0.002}  # fmt: skip
+    with_tool = client.post(
+        URL, json=body | {"tool": {"position": offset, "orientation": [0, 0, 0, 1]}}
+    ).json()
+    without = client.post(URL, json=body).json()
+    assert with_tool["diagnostics"]["duration"] > without["diagnostics"]["duration"]
+    _, q, qd, _ = arrays(with_tool)
+    robot = registry.get("ur5")
+    model, data = robot.model, robot.model.createData()
+    frame = model.getFrameId(robot.tip_frame)
+    speed = []
+    for qi, vi in zip(q, qd, strict=True):
+        pin.computeJointJacobians(model, data, qi)
+        pin.framesForwardKinematics(model, data, qi)
+        J = pin.getFrameJacobian(model, data, frame, pin.LOCAL_WORLD_ALIGNED)
+        twist = J @ vi
+        lever = data.oMf[frame].rotation @ np.array(offset)
+        speed.append(np.linalg.norm(twist[:3] + np.cross(twist[3:], lever)))
+    assert max(speed) <= 0.3 * (1 + 1e-6)
+    assert max(speed) >= 0.3 * (1 - 1e-3)  # the limit binds somewhere
+
+
 def test_robot_description_reports_dynamics(client: TestClient) -> None:
     ur5 = client.get("/v1/robots/ur5").json()
     assert ur5["dynamics"] is True and ur5["limits"]["effort"] == [150.0] * 3 + [28.0] * 3
@@ -218,6 +246,9 @@ LIMITS = {"velocity": [1.0, 1.0], "acceleration": [2.0, 2.0]}
          "validation", ["body", "limits", "acceleration"]),
         ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": LIMITS, "max_linear_speed": 1.0}, 422,
          "validation", ["body", "max_linear_speed"]),
+        ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": LIMITS,
+          "tool": {"position": [0, 0, 0.1], "orientation": [0, 0, 0, 1]}}, 422, "validation",
+         ["body", "tool"]),
         # jerk limits need a spline (a blended path's curvature steps)
         ({"waypoints": [[0.0, 0.0], [1.0, 0.0]], "limits": {**LIMITS, "jerk": [1.0, 1.0]}}, 422,
          "validation", ["body", "limits", "jerk"]),
