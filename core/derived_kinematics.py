@@ -42,6 +42,8 @@ class DerivedKinematics:
     """No jerk limits known."""
     configuration_labels: tuple[str, ...] = ()
     """No labels."""
+    redundant_joints: tuple[str, ...] = ()
+    """None held: ``ik_all`` gives what ``ik`` finds from the seed."""
 
     def configuration(self, q: np.ndarray) -> str | None:
         """No labels: core keeps its jump-ratio branch test for such a model."""

@@ -195,7 +195,14 @@ class Kinematics(Protocol):
     def ik_all(self, T_base_tool: np.ndarray, seed: np.ndarray | None = None) -> Solutions:
         """Every IK solution of ``T_base_tool`` inside the limits (nearest ``seed`` first), with
         their labels and the count of solutions only outside the limits; empty when the pose is
-        off the workspace. Core calls it only for robots with labels."""
+        off the workspace. The ``redundant_joints`` are held at the seed's values. Core calls it
+        only for robots with labels, and for the goal poses of collision-free motions."""
+        ...
+
+    @property
+    def redundant_joints(self) -> tuple[str, ...]:
+        """Joints ``ik_all`` holds at the seed's values (a 7-joint arm's extra degree of
+        freedom); empty when IK has finitely many solutions."""
         ...
 
     def ik_many(

@@ -2,7 +2,10 @@
 
 A goal pose gives every IK solution within the joint limits (``Kinematics.ik_all``), only those
 with the ``configuration`` label when one is asked for, nearest the start first (joint-space
-distance). The planner then keeps the clear ones (``clear_goals``); when none is clear the answer
+distance). A redundant arm (a Panda's 7th joint) has a continuum of them: its ``redundant_joints``
+are held at the start's values and at ``REDUNDANT_VALUES`` values spread over their limits, so
+that a pose reachable only with the extra joint elsewhere is found, and the planner has
+alternatives when the nearest solutions collide. The planner then keeps the clear ones (``clear_goals``); when none is clear the answer
 is ``Unreachable`` naming each solution's label and the pair it collides with.
 """
 
@@ -15,6 +18,10 @@ import numpy as np
 from core.errors import InputError, Unreachable
 from core.kinematics import Kinematics
 from core.motion.clearance import GroupClearance
+
+REDUNDANT_VALUES = 12
+"""Values of each redundant joint, spread evenly strictly inside its limits, at which a goal pose's
+IK solutions are gathered (besides the start's own value)."""
 
 
 @dataclass(frozen=True)
@@ -47,9 +54,7 @@ def pose_goals(
             field=field,
             extra={"configurations": list(labels)},
         )
-    sols = robot.ik_all(T_base_tool, q_start)
-    Q = np.asarray(sols.positions, dtype=float).reshape(-1, robot.dof)
-    found = tuple(sols.configurations)
+    Q, found = _solutions(robot, T_base_tool, q_start)
     if len(Q) == 0:
         raise Unreachable(
             "the goal pose has no IK solution within the joint limits", field=("goal", "pose")
@@ -87,3 +92,33 @@ def clear_goals(clearance: GroupClearance, goals: Goals, clear: np.ndarray) -> G
         field=("goal", "pose"),
         extra={"solutions": rows},
     )
+
+
+def _solutions(
+    robot: Kinematics, T_base_tool: np.ndarray, q_start: np.ndarray
+) -> tuple[np.ndarray, tuple[str | None, ...]]:
+    """IK solutions ``(k, dof)`` of ``T_base_tool`` and their labels: with the redundant joints
+    held at the start's values, then at ``REDUNDANT_VALUES`` values over their limits (one value
+    index for every redundant joint together), duplicates (within 1e-9 rad) dropped."""
+    held = [robot.joint_names.index(name) for name in robot.redundant_joints]
+    seeds = [np.asarray(q_start, dtype=float)]
+    if held:
+        lo, hi = robot.position_limits[held, 0], robot.position_limits[held, 1]
+        share = (np.arange(REDUNDANT_VALUES) + 0.5) / REDUNDANT_VALUES
+        for f in share:
+            seed = seeds[0].copy()
+            seed[held] = lo + f * (hi - lo)
+            seeds.append(seed)
+    rows: list[np.ndarray] = []
+    labels: list[str | None] = []
+    for seed in seeds:
+        sols = robot.ik_all(T_base_tool, seed)
+        for q, label in zip(
+            np.asarray(sols.positions, dtype=float).reshape(-1, robot.dof),
+            sols.configurations,
+            strict=True,
+        ):
+            if not any(np.abs(q - r).max() <= 1e-9 for r in rows):
+                rows.append(q)
+                labels.append(label)
+    return np.array(rows).reshape(-1, robot.dof), tuple(labels)

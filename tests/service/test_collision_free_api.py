@@ -352,3 +352,32 @@ def pose_matrix(pose: dict[str, Any]) -> np.ndarray:
     T[:3, :3] = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()
     T[:3, 3] = pose["position"]
     return T
+
+
+def test_a_panda_goal_pose_reachable_only_with_joint_7_elsewhere(client) -> None:
+    """A redundant arm's goal pose: the hand pointing forward at (0.7, 0.1, 0.4) has no solution
+    with panda_joint7 at the start's pi/4 (/v1/ik with ``all`` says so), yet many with it
+    elsewhere: the planner gathers them (was 422 unreachable) and reaches the pose (pinocchio)."""
+    panda = registry.get("panda")
+    pose = {"position": [0.7, 0.1, 0.4], "orientation": [0.0, 0.5**0.5, 0.0, 0.5**0.5]}
+    held = client.post(
+        "/v1/ik", json={"robot": "panda", "pose": pose, "seed": panda.home.tolist(), "all": True}
+    )
+    assert problem(held, 422, "unreachable")["redundant_joints"] == ["panda_joint7"]
+    answer = client.post(
+        URL,
+        json={
+            "robot": "panda",
+            "start": {"positions": panda.home.tolist()},
+            "goal": {"pose": pose},
+        },  # fmt: skip
+    )
+    assert answer.status_code == 200, answer.text
+    q_end = np.array(answer.json()["points"][-1]["positions"])
+    model, data = panda.model, panda.model.createData()
+    pin.framesForwardKinematics(model, data, q_end)
+    np.testing.assert_allclose(
+        data.oMf[model.getFrameId(panda.tip_frame)].homogeneous, pose_matrix(pose), atol=1e-9
+    )
+    limits = panda.position_limits
+    assert np.all((q_end >= limits[:, 0]) & (q_end <= limits[:, 1]))
