@@ -165,11 +165,6 @@ class Walker:
         sigma = path_rates(self.robot, self.line, q[None], False, s=np.zeros(1)).sigma[0]
         return bool(sigma >= SINGULAR_VALUE_THRESHOLD)
 
-    def predict(self, seed: Seed, s: float) -> np.ndarray:
-        """Where the rates lead from ``seed`` to ``s`` (``path_rates.predict``): IK's start."""
-        at = np.array([s - seed.h])
-        return predict(self.robot, self.line, seed.q, seed.dq, at, np.array([seed.h]))[0]
-
     def on_branch(self, q: np.ndarray, seed: Seed, s: float | None = None) -> bool:
         """Whether ``q`` continues the branch from ``seed``: within ``STRICT_BRANCH`` of the
         Jacobian's prediction (plus its slack); or, for a step of at most 2 ``MIN_STEP``,
@@ -193,7 +188,8 @@ class Walker:
         residual = np.inf
         for seed in seeds:
             step = seed.dq * seed.h
-            pred = self.predict(seed, s)
+            h = np.array([seed.h])  # IK starts where the rates lead (path_rates.predict)
+            pred = predict(self.robot, self.line, seed.q, seed.dq, s - h, h)[0]
             for start in (pred, seed.q):
                 q, ok, res = self.ik(T, start)
                 residual = min(residual, res)

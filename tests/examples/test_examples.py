@@ -44,7 +44,7 @@ def _run(script: Path, *args: str) -> subprocess.CompletedProcess[str]:
 
 def test_there_are_examples():
     assert {"ur5_line.py", "planar_through_hole.py", "puma_wrist_singularity.py",
-            "duration_too_short.py"} <= {p.name for p in SCRIPTS}  # fmt: skip
+            "duration_too_short.py", "panda_shelf_pick.py"} <= {p.name for p in SCRIPTS}  # fmt: skip
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.name)
@@ -61,10 +61,15 @@ def test_an_example_without_a_service_says_how_to_start_one():
 
 
 def test_examples_import_nothing_the_service_install_lacks():
-    """The scripts import the standard library, numpy, scipy and the service's own packages: what
-    ``pip install .`` installs (no httpx, no FastAPI test client, no requests)."""
+    """The scripts import the standard library, numpy, scipy, pinocchio, coal and the service's
+    own packages: what ``pip install .`` installs (no httpx, no FastAPI test client, no
+    requests)."""
     scripts = {p.stem for p in EXAMPLES.glob("*.py")}
-    allowed = set(sys.stdlib_module_names) | {"numpy", "scipy", "core", "robots"} | scripts
+    allowed = (
+        set(sys.stdlib_module_names)
+        | {"numpy", "scipy", "pinocchio", "coal", "core", "robots"}
+        | scripts
+    )
     for script in EXAMPLES.glob("*.py"):
         tree = ast.parse(script.read_text())
         imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}

@@ -370,7 +370,7 @@ def test_a_panda_goal_pose_reachable_only_with_joint_7_elsewhere(client) -> None
             "robot": "panda",
             "start": {"positions": panda.home.tolist()},
             "goal": {"pose": pose},
-        },  # fmt: skip
+        },
     )
     assert answer.status_code == 200, answer.text
     q_end = np.array(answer.json()["points"][-1]["positions"])
