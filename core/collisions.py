@@ -32,6 +32,12 @@ from core.trajectory import Trajectory
 
 PROFILE_POINTS = 200
 """Most returned points of a ``ClearanceReport`` profile (evenly spread, both ends included)."""
+STOP_TRIES = 4
+"""Stops tried before a contact by the planners that bring the arm to rest instead of refusing
+(``core.cartesian.stop``: shorter paths, ``core.program.stop``: earlier stops), each
+``STOP_SHRINK`` of the last."""
+STOP_SHRINK = 0.9
+
 MOVING_END = (
     "the answer ends moving (its last point has non-zero velocity, cut before a contact): bring "
     "the arm to rest before executing it"

@@ -26,6 +26,7 @@ import numpy as np
 import pinocchio as pin
 
 from robots.collision import CollisionChecker, PathCheck
+from robots.collision.dampers import point_jacobian
 
 
 class GroupedClearance:
@@ -197,8 +198,8 @@ class GroupedClearance:
             p1, p2 = np.asarray(res.getNearestPoint1()), np.asarray(res.getNearestPoint2())
             gap = p1 - p2
             n = gap / np.linalg.norm(gap) if d[g] > 1e-9 else -np.asarray(res.normal)
-            J = _point_jacobian(model, data, gm, cp.first, p1)
-            J -= _point_jacobian(model, data, gm, cp.second, p2)
+            J = point_jacobian(model, data, gm, cp.first, p1)
+            J -= point_jacobian(model, data, gm, cp.second, p2)
             rows.append(g)
             dist.append(d[g])
             normals.append(R @ n)
@@ -219,17 +220,3 @@ class GroupedClearance:
         g = int(np.argmin(d - self.threshold))
         name = self._names[int(self._group_pairs[g][index[g]])]
         return name, float(d[g]), float(self.threshold[g])
-
-
-def _point_jacobian(
-    model: pin.Model, data: pin.Data, gm: pin.GeometryModel, geom: int, p: np.ndarray
-) -> np.ndarray:
-    """``(3, nv)`` linear Jacobian of the world point ``p`` carried by geometry ``geom``'s joint
-    (zeros on the fixed root); ``computeJointJacobians`` must have run at the configuration."""
-    joint = gm.geometryObjects[geom].parentJoint
-    if joint == 0:
-        return np.zeros((3, model.nv))
-    J = pin.getJointJacobian(model, data, joint, pin.LOCAL_WORLD_ALIGNED)
-    r = p - data.oMi[joint].translation
-    skew = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
-    return J[:3] - skew @ J[3:]

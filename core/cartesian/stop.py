@@ -21,6 +21,8 @@ from core.cartesian.partial import MIN_FRACTION, partial_warning
 from core.cartesian.task import CartesianResult, CartesianTask
 from core.collisions import (
     MOVING_END,
+    STOP_SHRINK,
+    STOP_TRIES,
     ContactFound,
     End,
     check_ends,
@@ -30,10 +32,6 @@ from core.collisions import (
 )
 from core.errors import Collision, PlanningError
 from core.kinematics import Clearance
-
-STOP_TRIES = 4
-"""Shorter paths tried (each ``STOP_SHRINK`` of the last) to stop before a contact."""
-STOP_SHRINK = 0.9
 
 Planned = Callable[[CartesianTask], CartesianResult]
 """A task -> its finished, enforced result (the method's plan before the collision stage)."""

@@ -17,6 +17,8 @@ from dataclasses import replace
 
 from core.collisions import (
     MOVING_END,
+    STOP_SHRINK,
+    STOP_TRIES,
     ContactFound,
     End,
     check_ends,
@@ -29,10 +31,6 @@ from core.kinematics import Clearance
 from core.program.assemble import rest_at
 from core.program.report import ProgramResult, SegmentResult
 from core.program.timed import TimedProgram, segment_share
-
-STOP_TRIES = 4
-"""Stops tried (each ``STOP_SHRINK`` of the last time) before a contact."""
-STOP_SHRINK = 0.9
 
 
 def segment_at(segments: tuple[SegmentResult, ...], t: float) -> SegmentResult | None:
@@ -136,4 +134,4 @@ def _clipped(segment: SegmentResult, last: float) -> SegmentResult:
     return replace(segment, end_time=min(segment.end_time, last), blend_out=blend)
 
 
-__all__ = ["STOP_SHRINK", "STOP_TRIES", "collide", "segment_at"]
+__all__ = ["collide", "segment_at"]

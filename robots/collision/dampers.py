@@ -41,7 +41,7 @@ class DamperInputs:
     point_jacobians: np.ndarray
 
 
-def _point_jacobian(
+def point_jacobian(
     model: pin.Model, data: pin.Data, gm: pin.GeometryModel, geom: int, p: np.ndarray
 ) -> np.ndarray:
     """``(3, nv)`` linear Jacobian (world frame) of the point ``p`` [m] fixed to geometry ``geom``."""
@@ -78,7 +78,7 @@ def damper_inputs(check: CoalChecker, q: np.ndarray, d_influence: float) -> Damp
         p1, p2 = np.asarray(res.getNearestPoint1()), np.asarray(res.getNearestPoint2())
         gap = p1 - p2
         n = gap / np.linalg.norm(gap) if d > 1e-9 else -np.asarray(res.normal)
-        J = _point_jacobian(model, data, gm, g1, p1) - _point_jacobian(model, data, gm, g2, p2)
+        J = point_jacobian(model, data, gm, g1, p1) - point_jacobian(model, data, gm, g2, p2)
         rows.append(p)
         dist.append(d)
         normals.append(R @ n)

@@ -12,7 +12,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from core.collisions import MOVING_END
+from core.collisions import MOVING_END, STOP_TRIES
 from core.errors import Collision, TimeBudgetExceeded
 from core.program import stop
 from core.program.assemble import assemble, rest_at, sample
@@ -98,14 +98,14 @@ def test_each_stop_whose_check_finds_a_contact_is_tried_earlier(monkeypatch):
 
 
 def test_no_clear_stop_or_no_time_left_keeps_the_moving_cut(monkeypatch):
-    check = Scripted(contacts=1 + stop.STOP_TRIES)  # the plan and every stop
+    check = Scripted(contacts=1 + STOP_TRIES)  # the plan and every stop
     program = timed(check)
     whole = assemble(program)
     out = stop.collide(program, whole)
     k = int(0.6 * (len(whole.trajectory.times) - 1))
     assert len(out.trajectory.times) == k + 1 and MOVING_END in out.warnings
     assert np.any(out.trajectory.velocities[-1])
-    assert len(check.checked) == 1 + stop.STOP_TRIES + 1  # the plan, the stops, the cut
+    assert len(check.checked) == 1 + STOP_TRIES + 1  # the plan, the stops, the cut
 
     def expired(program, t, failure):
         raise TimeBudgetExceeded("bringing the program to rest exceeded the budget")
