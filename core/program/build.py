@@ -32,6 +32,7 @@ from core.cartesian.plan import planned as cartesian_planned
 from core.cartesian.plan import planner_of
 from core.cartesian.task import CartesianTask, PathSpec
 from core.cartesian.walk import walk_line
+from core.cartesian.walk_batch import batch_walk
 from core.errors import BranchFlip, InputError, JointLimit, PlanningError, Unreachable
 from core.kinematics import Kinematics
 from core.limits import outside, worst_joint
@@ -335,7 +336,7 @@ def _cartesian_blend(task: ProgramTask, a: SegmentPath, b: SegmentPath, u: np.nd
         deadline=task.deadline,
     )
     try:
-        w = walk_line(walk_task, blend, u)  # type: ignore[arg-type]
+        w = batch_walk(walk_task, blend, u) or walk_line(walk_task, blend, u)  # type: ignore[arg-type]
     except PlanningError as err:
         raise _tag(err, a.index, a.s_out + float(err.s or 0.0) * span_a) from None
     if w.failure is not None:
