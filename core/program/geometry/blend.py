@@ -22,8 +22,10 @@ from core.path.base import PathDeviation
 from core.timing.quintic import QuinticTiming
 
 CROSSING_SAMPLES = 2001
-"""Samples of a path searched for where it crosses a sphere (then bisection to ``_BISECT``)."""
-_BISECT = 60
+"""Samples of a path searched for where it crosses a sphere (then ``_REFINE`` rounds of
+``_SPLIT``-point k-section: the bracket 1/2000 x 16^-14, below a double's spacing)."""
+_SPLIT = 15
+_REFINE = 14
 DERIVATIVE_STEP = 1e-6
 """Step in u of the central differences of ``BlendPath.derivative``."""
 TABLE = 2001
@@ -176,11 +178,13 @@ def sphere_crossing(
         if len(idx) == 0 or idx[0] == 0:
             return 1.0 if len(idx) == 0 else 0.0
         lo, hi = s[idx[0] - 1], s[idx[0]]  # inside at lo, outside at hi
-    for _ in range(_BISECT):
-        mid = 0.5 * (lo + hi)
-        out = bool(np.linalg.norm(positions(np.array([mid]))[0] - center) >= radius)
-        if out == last:
-            lo = mid
-        else:
-            hi = mid
+    for _ in range(_REFINE):  # k-section: the bracket shrinks 1/(_SPLIT + 1) a round
+        mid = lo + (hi - lo) * np.arange(1, _SPLIT + 1) / (_SPLIT + 1)
+        out = np.linalg.norm(positions(mid) - center, axis=1) >= radius
+        # the bracket keeps ``last`` (outside) at lo and ``not last`` at hi
+        k = np.flatnonzero(out != last)
+        j = int(k[0]) if len(k) else _SPLIT  # first point on hi's side
+        lo, hi = (mid[j - 1] if j > 0 else lo), (mid[j] if j < _SPLIT else hi)
+        if hi - lo <= 0.0:
+            break
     return float(lo if last else hi)
