@@ -41,7 +41,7 @@ class PathLaw(Protocol):
 
 def jumps(law: PathLaw) -> np.ndarray:
     """The switch times of ``law`` where s'' jumps (more than ``JUMP``), 0 and the duration
-    kept: the times ``with_switches`` must hold."""
+    kept: the times ``with_switches`` must hold (where only s''' changes is no jump)."""
     return jumps_at(law, law.switch_times)
 
 
@@ -51,8 +51,16 @@ def jumps_at(law: Callable[[np.ndarray, int], np.ndarray], switch_times: np.ndar
     t = np.asarray(switch_times, dtype=float)
     if len(t) < 3:
         return t
-    u = np.asarray(law(0.5 * (t[:-1] + t[1:]), 2), dtype=float)  # s'' on each interval
-    jump = np.abs(np.diff(u)) > JUMP * max(float(np.abs(u).max()), 1e-300)
+    # s'' at each interval's ends, from two points inside it (exact for s'' constant, as TOPP's,
+    # or linear, as a jerk-limited S-curve's, whose continuous s'' is then no jump)
+    width = np.diff(t)
+    a, b = t[:-1] + width / 3.0, t[:-1] + 2.0 * width / 3.0
+    ua = np.asarray(law(a, 2), dtype=float)
+    ub = np.asarray(law(b, 2), dtype=float)
+    change = ub - ua  # s'' over the middle third: a third of its change over the interval
+    right, left = ua - change, ub + change  # s'' at the start and at the end of each interval
+    scale = max(float(np.abs(ua).max()), float(np.abs(ub).max()), 1e-300)
+    jump = np.abs(right[1:] - left[:-1]) > JUMP * scale
     return np.concatenate([t[:1], t[1:-1][jump], t[-1:]])
 
 

@@ -21,7 +21,7 @@ from core.timing.path_constraints import Effort, PathLimits, ToolSpeed
 from core.timing.topp import TimeOptimal, time_optimal
 from tests.core.timing.helpers import Pendulums, walk
 
-toppra = pytest.importorskip("toppra")  # the bench extra: the reference of these tests
+toppra = pytest.importorskip("toppra")  # the test extra: the reference of these tests
 algorithm = pytest.importorskip("toppra.algorithm")
 constraint = pytest.importorskip("toppra.constraint")
 interpolator = pytest.importorskip("toppra.interpolator")
