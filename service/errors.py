@@ -98,6 +98,16 @@ def body_model(request: Request) -> type[BaseModel] | None:
     return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
+def _message(error: Any) -> str:
+    """pydantic's message of ``error``, without the input it would echo: an invalid union tag is
+    named by its field and the expected tags (pydantic's own message quotes the client's tag)."""
+    ctx = error.get("ctx") or {}
+    if error.get("type") == "union_tag_invalid" and "expected_tags" in ctx:
+        field = ctx.get("discriminator", "the tag")
+        return f"{field} does not match any of the expected tags: {ctx['expected_tags']}"
+    return str(error.get("msg", "invalid value"))
+
+
 def _validation_errors(
     exc: RequestValidationError, model: type[BaseModel] | None
 ) -> list[dict[str, Any]]:
@@ -111,7 +121,7 @@ def _validation_errors(
             loc = loc[:-2]
         if loc[:1] == ["body"] and model is not None:
             loc = ["body", *without_tags(model, loc[1:])]
-        row = {"loc": loc, "msg": str(e.get("msg", "invalid value"))}
+        row = {"loc": loc, "msg": _message(e)}
         row["type"] = str(e.get("type", "value_error"))
         if row not in out:
             out.append(row)

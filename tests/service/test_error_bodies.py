@@ -256,3 +256,17 @@ def test_the_sweep_checks_the_route_models() -> None:
         long = {"type": "x/too_large", "status": 422, "code": "too_large", "detail": "1" * 160}
         documented_problem(422, "application/problem+json", long, CODES)
     assert json.dumps(CODES)  # the table parsed
+
+
+@pytest.mark.parametrize("tag", ["blob", 10**20, [10**20], {"a": 1}])
+def test_an_unknown_union_tag_is_named_not_echoed(client: TestClient, tag: Any) -> None:
+    """A shape whose ``type`` is no known tag: the message names the field and the tags it may
+    take; pydantic's own quoted the client's tag (a 21-digit integer in the slow fuzz run)."""
+    url = "/v1/robots/ur5/distance"
+    shape = {"name": "a", "shape": {"type": tag},
+             "pose": {"position": [0, 0, 0], "orientation": [0, 0, 0, 1]}}  # fmt: skip
+    body = {"positions": UR5, "environment": {"obstacles": [shape]}}
+    err = check(client.post(url, json=body), url)
+    assert err["code"] == "validation"
+    assert err["errors"][0]["loc"] == ["body", "environment", "obstacles", 0, "shape"]
+    assert "'box', 'sphere'" in err["errors"][0]["msg"] and str(tag) not in err["detail"]
