@@ -2,11 +2,13 @@
 
 A goal pose gives every IK solution within the joint limits (``Kinematics.ik_all``), only those
 with the ``configuration`` label when one is asked for, nearest the start first (joint-space
-distance). A redundant arm (a Panda's 7th joint) has a continuum of them: its ``redundant_joints``
-are held at the start's values and at ``REDUNDANT_VALUES`` values spread over their limits, so
-that a pose reachable only with the extra joint elsewhere is found, and the planner has
-alternatives when the nearest solutions collide. The planner then keeps the clear ones (``clear_goals``); when none is clear the answer
-is ``Unreachable`` naming each solution's label and the pair it collides with.
+distance). A redundant arm (a Panda's 7th joint) holds its ``redundant_joints`` at the start's
+values; when the pose has no solution so, they are held at ``REDUNDANT_VALUES`` values spread over
+their limits instead, so that a pose reachable only with the extra joint elsewhere is found (each
+held value whose closed form has no solution inside the limits costs a numeric search: about 0.1 s
+on a Panda, so the sweep is the fallback, not the rule). The planner then keeps the clear ones
+(``clear_goals``); when none is clear the answer is ``Unreachable`` naming each solution's label
+and the pair it collides with.
 """
 
 from __future__ import annotations
@@ -15,13 +17,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.budget import NO_DEADLINE, Deadline
 from core.errors import InputError, Unreachable
 from core.kinematics import Kinematics
 from core.motion.clearance import GroupClearance
 
 REDUNDANT_VALUES = 12
 """Values of each redundant joint, spread evenly strictly inside its limits, at which a goal pose's
-IK solutions are gathered (besides the start's own value)."""
+IK solutions are gathered when it has none with the start's own value."""
 
 
 @dataclass(frozen=True)
@@ -41,7 +44,11 @@ class Goals:
 
 
 def pose_goals(
-    robot: Kinematics, T_base_tool: np.ndarray, q_start: np.ndarray, configuration: str | None
+    robot: Kinematics,
+    T_base_tool: np.ndarray,
+    q_start: np.ndarray,
+    configuration: str | None,
+    deadline: Deadline = NO_DEADLINE,
 ) -> Goals:
     """Every IK solution of ``T_base_tool`` (with ``configuration`` when given), nearest
     ``q_start`` first; ``Unreachable`` when there is none, ``InputError`` for an unknown label."""
@@ -54,7 +61,7 @@ def pose_goals(
             field=field,
             extra={"configurations": list(labels)},
         )
-    Q, found = _solutions(robot, T_base_tool, q_start)
+    Q, found = _solutions(robot, T_base_tool, q_start, deadline)
     if len(Q) == 0:
         raise Unreachable(
             "the goal pose has no IK solution within the joint limits", field=("goal", "pose")
@@ -95,23 +102,23 @@ def clear_goals(clearance: GroupClearance, goals: Goals, clear: np.ndarray) -> G
 
 
 def _solutions(
-    robot: Kinematics, T_base_tool: np.ndarray, q_start: np.ndarray
+    robot: Kinematics, T_base_tool: np.ndarray, q_start: np.ndarray, deadline: Deadline
 ) -> tuple[np.ndarray, tuple[str | None, ...]]:
     """IK solutions ``(k, dof)`` of ``T_base_tool`` and their labels: with the redundant joints
-    held at the start's values, then at ``REDUNDANT_VALUES`` values over their limits (one value
-    index for every redundant joint together), duplicates (within 1e-9 rad) dropped."""
+    held at the start's values, else at ``REDUNDANT_VALUES`` values over their limits (one value
+    index for every redundant joint together; duplicates within 1e-9 rad dropped)."""
+    sols = robot.ik_all(T_base_tool, q_start)
+    Q = np.asarray(sols.positions, dtype=float).reshape(-1, robot.dof)
     held = [robot.joint_names.index(name) for name in robot.redundant_joints]
-    seeds = [np.asarray(q_start, dtype=float)]
-    if held:
-        lo, hi = robot.position_limits[held, 0], robot.position_limits[held, 1]
-        share = (np.arange(REDUNDANT_VALUES) + 0.5) / REDUNDANT_VALUES
-        for f in share:
-            seed = seeds[0].copy()
-            seed[held] = lo + f * (hi - lo)
-            seeds.append(seed)
+    if len(Q) or not held:
+        return Q, tuple(sols.configurations)
+    lo, hi = robot.position_limits[held, 0], robot.position_limits[held, 1]
     rows: list[np.ndarray] = []
     labels: list[str | None] = []
-    for seed in seeds:
+    for f in (np.arange(REDUNDANT_VALUES) + 0.5) / REDUNDANT_VALUES:
+        deadline.check("IK of the goal pose")
+        seed = np.asarray(q_start, dtype=float).copy()
+        seed[held] = lo + f * (hi - lo)
         sols = robot.ik_all(T_base_tool, seed)
         for q, label in zip(
             np.asarray(sols.positions, dtype=float).reshape(-1, robot.dof),

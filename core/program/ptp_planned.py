@@ -45,7 +45,9 @@ def planned_goals(task: ProgramTask, i: int, q: np.ndarray, goal: np.ndarray) ->
     if seg.goal_positions is not None or seg.goal_pose is None or clearance is None:
         return goal[None]
     try:
-        goals = pose_goals(task.robot, np.asarray(seg.goal_pose), q, seg.configuration)
+        goals = pose_goals(
+            task.robot, np.asarray(seg.goal_pose), q, seg.configuration, task.deadline
+        )
         certifier = Certifier(clearance)
         clear = np.array([certifier.state_ok(g) for g in goals.positions])
         return clear_goals(clearance, goals, clear).positions

@@ -63,7 +63,9 @@ def motion_task(
         goals = Goals(q_goal[None], (robot.configuration(q_goal),), False)
     else:
         assert body.goal.pose is not None  # the schema gives exactly one
-        goals = pose_goals(robot, body.goal.pose.as_matrix(), q_start, body.goal.configuration)
+        goals = pose_goals(
+            robot, body.goal.pose.as_matrix(), q_start, body.goal.configuration, deadline
+        )
     if body.max_planning_time is not None and body.max_planning_time > budget_s:
         raise InputError(
             f"max_planning_time may be at most the request's time budget, {budget_s:g} s",
