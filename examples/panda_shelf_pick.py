@@ -24,7 +24,7 @@ import math
 import coal
 import numpy as np
 import pinocchio as pin
-from _common import client, expect, points
+from _common import client, expect, goal_matrix, points
 
 from robots import registry
 from robots.geometry import ROBOT_GEOMETRY
@@ -62,14 +62,6 @@ REQUEST = {
 }
 SWEEP = 4
 """Points checked between two consecutive returned points."""
-
-
-def grasp_matrix() -> np.ndarray:
-    x, y, z, w = GRASP["orientation"]
-    T = np.eye(4)
-    T[:3, :3] = pin.Quaternion(w, x, y, z).toRotationMatrix()
-    T[:3, 3] = GRASP["position"]
-    return T
 
 
 def capsule_shapes() -> list[tuple[int, coal.Capsule, pin.SE3]]:
@@ -143,7 +135,7 @@ def main() -> None:
     )
 
     T_end = PANDA.fk(q[-1])
-    T_goal = grasp_matrix()
+    T_goal = goal_matrix(REQUEST)
     position = np.linalg.norm(T_end[:3, 3] - T_goal[:3, 3])
     turn = np.linalg.norm(pin.log3(T_goal[:3, :3].T @ T_end[:3, :3]))
     print(f"  grasp pose reached within {position:.1e} m and {turn:.1e} rad")

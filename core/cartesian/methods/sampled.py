@@ -127,9 +127,9 @@ def _batch_chunk(
     many: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
 ) -> None:
     """``_batch_solve`` on the points ``todo`` (indices into ``s``), in place."""
-    q0, h = walk.positions[k[todo]], (s - walk.s[k])[todo]
-    step = walk.rates.dq_ds[k[todo]] * h[:, None]
-    q = predict(w.robot, w.line, q0, walk.rates.dq_ds[k[todo]], walk.s[k[todo]], h)
+    q0, h, dq = walk.positions[k[todo]], (s - walk.s[k])[todo], walk.rates.dq_ds[k[todo]]
+    step = dq * h[:, None]
+    q = predict(w.robot, w.line, q0, dq, walk.s[k[todo]], h)
     p_goal, R_goal = poses[todo, :3, 3], poses[todo, :3, :3]
     active = np.ones(len(todo), dtype=bool)
     converged = np.zeros(len(todo), dtype=bool)
