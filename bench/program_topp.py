@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from bench.retime import toppra_path
 from core.program.chunk import ChunkPath
 from core.timing.path_constraints import PathLimits
 from core.timing.path_grid import sample_path
@@ -31,25 +32,8 @@ def toppra_on_chunk(
     import toppra
     import toppra.algorithm
     import toppra.constraint
-    import toppra.interpolator
 
     toppra.setup_logging("WARNING")
-
-    class Adapter(toppra.interpolator.AbstractGeometricPath):  # type: ignore[misc]
-        def __call__(self, s, order=0):  # type: ignore[no-untyped-def]
-            return path(np.atleast_1d(np.asarray(s, dtype=float)), order)
-
-        @property
-        def dof(self) -> int:
-            return path.dof
-
-        @property
-        def path_interval(self) -> np.ndarray:
-            return np.array([0.0, path.length])
-
-        @property
-        def waypoints(self) -> None:
-            return None
 
     class Rows(toppra.constraint.LinearConstraint):  # type: ignore[misc]
         """Every kept row of ``rows``: |a u + b x + c| <= h at each grid point."""
@@ -64,7 +48,7 @@ def toppra_on_chunk(
             return r.A, r.B, r.C, F, g, None, None
 
     algo = toppra.algorithm.TOPPRA(
-        [Rows()], Adapter(), gridpoints=gridpoints, parametrizer="ParametrizeConstAccel"
+        [Rows()], toppra_path(path), gridpoints=gridpoints, parametrizer="ParametrizeConstAccel"
     )
     trajectory = algo.compute_trajectory()
     return trajectory, len(algo.problem_data.gridpoints) - 1

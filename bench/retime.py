@@ -29,6 +29,7 @@ toppra's with 0 excess; compute time <= 1.0x toppra's for 100-1000 waypoints.
 from __future__ import annotations
 
 import json
+from typing import Any
 
 import numpy as np
 
@@ -166,6 +167,30 @@ def _jerk_row(path: JointPath, limits: PathLimits, jerk: np.ndarray, optimal: fl
     )
 
 
+def toppra_path(path: Any) -> Any:
+    """``path`` (``path(s, order)``, ``dof``, ``length``: a ``JointPath`` or a program's
+    ``ChunkPath``) through toppra's geometric-path interface."""
+    import toppra.interpolator
+
+    class Adapter(toppra.interpolator.AbstractGeometricPath):  # type: ignore[misc]
+        def __call__(self, s, order=0):  # type: ignore[no-untyped-def]
+            return path(np.atleast_1d(np.asarray(s, dtype=float)), order)
+
+        @property
+        def dof(self) -> int:
+            return int(path.dof)
+
+        @property
+        def path_interval(self) -> np.ndarray:
+            return np.array([0.0, path.length])
+
+        @property
+        def waypoints(self) -> None:
+            return None
+
+    return Adapter()
+
+
 def _toppra(path: JointPath, v: np.ndarray, a: np.ndarray, key: str, n: int):  # type: ignore[no-untyped-def]
     import toppra
     import toppra.algorithm
@@ -178,24 +203,7 @@ def _toppra(path: JointPath, v: np.ndarray, a: np.ndarray, key: str, n: int):  #
         geometric = toppra.SplineInterpolator(path.knots, waypoints)
         reference = "toppra's SplineInterpolator (the same not-a-knot cubic in chord length)"
     else:
-
-        class Adapter(toppra.interpolator.AbstractGeometricPath):  # type: ignore[misc]
-            def __call__(self, s, order=0):  # type: ignore[no-untyped-def]
-                return path(np.atleast_1d(np.asarray(s, dtype=float)), order)
-
-            @property
-            def dof(self) -> int:
-                return path.dof
-
-            @property
-            def path_interval(self) -> np.ndarray:
-                return np.array([0.0, path.length])
-
-            @property
-            def waypoints(self) -> None:
-                return None
-
-        geometric = Adapter()
+        geometric = toppra_path(path)
         reference = "our BlendedPath through toppra's geometric-path interface"
     constraints = [
         toppra.constraint.JointVelocityConstraint(np.column_stack([-v, v])),
