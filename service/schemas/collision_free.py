@@ -15,6 +15,7 @@ from core.motion.timing import TIMINGS
 from service.schemas.common import (
     GRAVITY_FIELD,
     TOOL_FIELD,
+    ConfigurationLabel,
     Gravity,
     JointPositions,
     Pose,
@@ -47,11 +48,8 @@ class CollisionFreeGoal(StrictModel):
 
     positions: JointPositions | None = Field(default=None, description="Goal joints [rad or m].")
     pose: Pose | None = Field(default=None, description="Goal tool pose in the base frame.")
-    configuration: str | None = Field(
+    configuration: ConfigurationLabel | None = Field(
         default=None,
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_-]+$",
         description="Configuration label the goal's IK solution must carry (with pose; robots "
         "that have labels). Without it every solution is a candidate. A label the pose has no "
         "solution with is 422 `unreachable` with `configurations` (the labels it has); a label "

@@ -42,6 +42,8 @@ positive limit below it is no physical limit, and its ratios overflow."""
 PositiveVelocity = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_VELOCITY)]
 PositiveAcceleration = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_ACCELERATION)]
 
+ConfigurationLabel = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_-]+$")]
+"""A configuration label a goal pose's IK solution must carry (1-64 of ``[A-Za-z0-9_-]``)."""
 JointPositions = Annotated[
     list[Position],
     Field(

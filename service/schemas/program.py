@@ -27,6 +27,7 @@ from service.schemas.collision_free import MAX_SEED
 from service.schemas.common import (
     GRAVITY_FIELD,
     TOOL_FIELD,
+    ConfigurationLabel,
     EffortLimits,
     Gravity,
     JointPositions,
@@ -88,11 +89,8 @@ class PtpGoal(StrictModel):
 
     positions: JointPositions | None = Field(default=None, description="Goal joints [rad or m].")
     pose: Pose | None = Field(default=None, description="Goal tool pose in the base frame.")
-    configuration: str | None = Field(
+    configuration: ConfigurationLabel | None = Field(
         default=None,
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_-]+$",
         description="Configuration label the IK solution must carry (with pose; robots that "
         "have labels, e.g. UR5 `left-up-noflip`): the solution with this label nearest the "
         "current joints. Without it: the solution nearest the current joints. A label the pose "
